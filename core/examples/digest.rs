@@ -1,0 +1,86 @@
+//! Prints a digest of every candidate decoded from a fixed synthetic workload.
+//!
+//! Candidates must be bit-identical in every build profile and on every machine (SPEC §6, the
+//! firmware cross-check); CI runs this in the dev and the release profile and compares:
+//! `cargo run -p fsm-core --example digest` and `cargo run -p fsm-core --release --example digest`.
+
+use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan, Window};
+
+/// FNV-1a, 64 bit.
+struct Digest(u64);
+
+impl Digest {
+    fn bytes(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 ^= *b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// A row of `width` pixels lit by one or two columns, with integer pseudo-noise.
+fn row(plan: &ScanPlan, width: usize, seed: u64) -> Vec<u16> {
+    let mut state = seed;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 33) as u32
+    };
+    let cmax = plan.projector_columns as u32;
+    let mut frames = vec![0u16; plan.sequence_len() * width];
+    for x in 0..width {
+        let a = 2 + next() % (cmax - 4);
+        let b = (x % 3 == 0).then(|| 2 + next() % (cmax - 4));
+        for (i, p) in plan.sequence().enumerate() {
+            let mut v = 90.0 + 1800.0 * plan.intensity(p, a) + 700.0 * plan.intensity(p, a + 1);
+            if let Some(b) = b {
+                v += 900.0 * plan.intensity(p, b);
+            }
+            let noise = (next() % 7) as f32 - 3.0;
+            frames[i * width + x] = (v + noise).round().clamp(0.0, 4095.0) as u16;
+        }
+    }
+    frames
+}
+
+fn main() {
+    let mut hann = ScanPlan::paper_efsm(GroupCount::Two);
+    hann.decoding.window = Window::Hann;
+    let plans = [
+        ScanPlan::paper_bfsm(),
+        ScanPlan::paper_efsm(GroupCount::Two),
+        hann,
+    ];
+    let mut digest = Digest(0xcbf2_9ce4_8422_2325);
+    let mut count = 0;
+    for (n, plan) in plans.iter().enumerate() {
+        let width = 64;
+        let frames = row(plan, width, n as u64 + 1);
+        let mut tables = vec![0.0; Decoder::tables_len(plan)];
+        let decoder = Decoder::new(plan, &mut tables).expect("preset is valid");
+        let mut scratch = vec![0.0; Decoder::scratch_len(plan)];
+        let mut out = vec![PixelCandidates::<16>::new(); width];
+        let row = Row {
+            frames: &frames,
+            width,
+            bit_depth: 12,
+            column_limits: None,
+        };
+        decoder
+            .decode_row(&row, &mut scratch, &mut out)
+            .expect("row decodes");
+        for p in &out {
+            digest.bytes(&[p.flags.0]);
+            digest.bytes(&p.noise_dn.to_bits().to_le_bytes());
+            for c in &p.candidates {
+                digest.bytes(&c.column.to_bits().to_le_bytes());
+                digest.bytes(&c.amplitude.to_bits().to_le_bytes());
+                digest.bytes(&[c.groups.0, c.group.number(), c.peak]);
+                digest.bytes(&c.block.to_le_bytes());
+                count += 1;
+            }
+        }
+    }
+    println!("{count} candidates, digest {:016x}", digest.0);
+}

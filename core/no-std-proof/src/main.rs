@@ -1,0 +1,33 @@
+//! Build proof that `fsm-core` is `no_std`: std defines the `panic_impl` lang item, so if any
+//! dependency linked std this crate's own `#[panic_handler]` would be a duplicate and the build
+//! would fail. CI builds it on its own, so that feature unification with host crates cannot
+//! hide a leak:
+//!
+//! ```sh
+//! cargo rustc --manifest-path core/no-std-proof/Cargo.toml --release -- \
+//!     -C panic=abort -C link-arg=-nostartfiles
+//! ```
+#![no_std]
+#![no_main]
+
+use core::panic::PanicInfo;
+
+#[panic_handler]
+fn panic(_: &PanicInfo) -> ! {
+    loop {}
+}
+
+/// The host's precompiled `core` is built for unwinding and names this symbol; the binary is
+/// only linked, never run, so an empty one completes the link.
+#[no_mangle]
+pub extern "C" fn rust_eh_personality() {}
+
+/// Touches the decoder so it is compiled into this binary, not just type-checked.
+#[no_mangle]
+pub extern "C" fn fsm_core_no_std_proof(tables: &mut [f32; 4096]) -> usize {
+    let plan = fsm_core::ScanPlan::paper_efsm(fsm_core::GroupCount::Two);
+    match fsm_core::Decoder::new(&plan, tables) {
+        Ok(d) => d.plan().sequence_len(),
+        Err(_) => 0,
+    }
+}

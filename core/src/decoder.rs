@@ -1,0 +1,387 @@
+//! The line decoder: one temporal row in, the candidates of every pixel out.
+//!
+//! Input is a row exactly as frames deliver it: sample-major, `frames[i·W + x]` is frame `i`
+//! (in [`ScanPlan::pattern`] order, references included) at pixel `x`, as `u16` codes of an
+//! 8- to 16-bit sensor. The caller owns every buffer: the plan's tables (built once per plan)
+//! and a scratch area reused from row to row. Nothing but the plan carries over between rows,
+//! and no input (zero, constant, saturated) makes the decoder panic.
+
+use core::fmt;
+
+use crate::block::{self, MaskLevels};
+use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+use crate::kernel::{self, Kernel};
+use crate::plan::{Method, PlanError, ScanPlan, Window};
+use crate::search::{self, PeakList};
+use crate::sequence::Group;
+use crate::spectrum::{self, Spectrum};
+
+/// One temporal row of captured frames.
+#[derive(Clone, Copy, Debug)]
+pub struct Row<'a> {
+    /// `frames[i·width + x]`: frame `i` at pixel `x`, every frame of the plan's sequence.
+    pub frames: &'a [u16],
+    /// Pixels in the row, `W`.
+    pub width: usize,
+    /// Sensor bit depth, 1–16: codes at `2^bits − 1` and above are saturated.
+    pub bit_depth: u8,
+    /// Optional per-pixel column range (length `W`), intersected with the projector's columns.
+    pub column_limits: Option<&'a [ColumnRange]>,
+}
+
+/// Why a decoder could not be built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(missing_docs)] // each field is the value the variant reports
+pub enum DecoderError {
+    /// The plan breaks a rule.
+    Plan(PlanError),
+    /// The table storage is shorter than [`Decoder::tables_len`].
+    TablesTooShort { needed: usize, got: usize },
+}
+
+/// Why a row could not be decoded; nothing was written to the output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(missing_docs)] // each field is the value the variant reports
+pub enum RowError {
+    /// `frames` does not hold `sequence_len × width` samples.
+    FramesLength { expected: usize, actual: usize },
+    /// Width 0.
+    EmptyRow,
+    /// Bit depth outside 1–16.
+    BitDepth { bit_depth: u8 },
+    /// The output does not have one entry per pixel.
+    OutputLength { expected: usize, actual: usize },
+    /// The column limits do not have one entry per pixel.
+    ColumnLimitsLength { expected: usize, actual: usize },
+    /// The scratch area is shorter than [`Decoder::scratch_len`].
+    ScratchTooShort { needed: usize, got: usize },
+    /// Pixel index past the row.
+    Pixel { x: usize, width: usize },
+}
+
+impl fmt::Display for DecoderError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DecoderError::Plan(e) => write!(f, "invalid plan: {e}"),
+            DecoderError::TablesTooShort { needed, got } => {
+                write!(f, "decoder tables need {needed} floats, got {got}")
+            }
+        }
+    }
+}
+
+impl fmt::Display for RowError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            RowError::FramesLength { expected, actual } => write!(
+                f,
+                "row holds {actual} samples, the plan needs {expected} (frames x width)"
+            ),
+            RowError::EmptyRow => write!(f, "row width is 0"),
+            RowError::BitDepth { bit_depth } => {
+                write!(f, "bit depth {bit_depth} is outside 1..=16")
+            }
+            RowError::OutputLength { expected, actual } => {
+                write!(f, "output has {actual} pixels, the row has {expected}")
+            }
+            RowError::ColumnLimitsLength { expected, actual } => {
+                write!(
+                    f,
+                    "column limits have {actual} entries, the row has {expected} pixels"
+                )
+            }
+            RowError::ScratchTooShort { needed, got } => {
+                write!(f, "scratch needs {needed} floats, got {got}")
+            }
+            RowError::Pixel { x, width } => write!(f, "pixel {x} is outside a row of {width}"),
+        }
+    }
+}
+
+impl From<PlanError> for DecoderError {
+    fn from(e: PlanError) -> Self {
+        DecoderError::Plan(e)
+    }
+}
+
+/// Decodes rows of one plan. Cheap to share between threads: it only reads its tables.
+#[derive(Clone, Copy, Debug)]
+pub struct Decoder<'t> {
+    plan: ScanPlan,
+    kernel: Kernel<'t>,
+    window: &'t [f32],
+    inverse_window_sum: f32,
+    /// Sample noise RMS per unit of bin noise RMS: `Σh / sqrt(Σh²)`.
+    bin_to_sample_noise: f32,
+}
+
+impl<'t> Decoder<'t> {
+    /// Floats of table storage a decoder of `plan` needs (kernel, window).
+    pub fn tables_len(plan: &ScanPlan) -> usize {
+        Kernel::storage_len(plan) + window_len(plan)
+    }
+
+    /// Floats of scratch [`Decoder::decode_row`] needs: one spectrum and one bin per power.
+    pub fn scratch_len(plan: &ScanPlan) -> usize {
+        let n = plan.transform_size as usize;
+        (n + 2) + (n / 2 + 1)
+    }
+
+    /// Validates `plan` and builds its tables in `tables`.
+    pub fn new(plan: &ScanPlan, tables: &'t mut [f32]) -> Result<Self, DecoderError> {
+        plan.validate()?;
+        let needed = Self::tables_len(plan);
+        if tables.len() < needed {
+            return Err(DecoderError::TablesTooShort {
+                needed,
+                got: tables.len(),
+            });
+        }
+        let (kernel_storage, rest) = tables.split_at_mut(Kernel::storage_len(plan));
+        let kernel = Kernel::build(plan, kernel_storage).ok_or(DecoderError::TablesTooShort {
+            needed,
+            got: needed,
+        })?;
+        let m = plan.band.count as usize;
+        let window = &mut rest[..window_len(plan)];
+        for (i, h) in window.iter_mut().enumerate() {
+            *h = kernel::hann(i, m) as f32;
+        }
+        let window: &'t [f32] = window;
+        // The sums the spectrum is scaled by come from the f32 weights actually applied.
+        let (sum, sum_sq) = if window.is_empty() {
+            (m as f64, m as f64)
+        } else {
+            window.iter().fold((0.0f64, 0.0f64), |(s, q), &h| {
+                (s + h as f64, q + (h * h) as f64)
+            })
+        };
+        Ok(Decoder {
+            plan: *plan,
+            kernel,
+            window,
+            inverse_window_sum: (1.0 / sum) as f32,
+            bin_to_sample_noise: (sum / libm::sqrt(sum_sq)) as f32,
+        })
+    }
+
+    /// The plan this decoder decodes.
+    pub fn plan(&self) -> &ScanPlan {
+        &self.plan
+    }
+
+    /// The plan's kernel (modelled spectrum of one column).
+    pub fn kernel(&self) -> &Kernel<'t> {
+        &self.kernel
+    }
+
+    /// Decodes every pixel of `row` into `out` (one entry per pixel).
+    pub fn decode_row<const K: usize>(
+        &self,
+        row: &Row<'_>,
+        scratch: &mut [f32],
+        out: &mut [PixelCandidates<K>],
+    ) -> Result<(), RowError> {
+        self.check(row, scratch)?;
+        if out.len() != row.width {
+            return Err(RowError::OutputLength {
+                expected: row.width,
+                actual: out.len(),
+            });
+        }
+        for (x, pixel) in out.iter_mut().enumerate() {
+            self.decode_checked(row, x, scratch, pixel);
+        }
+        Ok(())
+    }
+
+    /// Decodes pixel `x` of `row` into `out`.
+    pub fn decode_pixel<const K: usize>(
+        &self,
+        row: &Row<'_>,
+        x: usize,
+        scratch: &mut [f32],
+        out: &mut PixelCandidates<K>,
+    ) -> Result<(), RowError> {
+        self.check(row, scratch)?;
+        if x >= row.width {
+            return Err(RowError::Pixel {
+                x,
+                width: row.width,
+            });
+        }
+        self.decode_checked(row, x, scratch, out);
+        Ok(())
+    }
+
+    /// The spectrum of `group`'s fringes at pixel `x`, in `scratch` (for inspection: the
+    /// c-domain of paper Figs. 3, 4e and 8).
+    pub fn spectrum<'s>(
+        &self,
+        row: &Row<'_>,
+        x: usize,
+        group: Group,
+        scratch: &'s mut [f32],
+    ) -> Result<Spectrum<'s>, RowError> {
+        self.check(row, scratch)?;
+        if x >= row.width {
+            return Err(RowError::Pixel {
+                x,
+                width: row.width,
+            });
+        }
+        self.load(row, x, group, scratch);
+        Ok(Spectrum::new(scratch, self.plan.transform_size as usize))
+    }
+
+    /// The peaks of `group`'s spectrum at pixel `x` (span-domain columns).
+    pub fn peaks(
+        &self,
+        row: &Row<'_>,
+        x: usize,
+        group: Group,
+        scratch: &mut [f32],
+    ) -> Result<PeakList, RowError> {
+        self.check(row, scratch)?;
+        if x >= row.width {
+            return Err(RowError::Pixel {
+                x,
+                width: row.width,
+            });
+        }
+        self.load(row, x, group, scratch);
+        Ok(self.search(scratch))
+    }
+
+    fn check(&self, row: &Row<'_>, scratch: &[f32]) -> Result<(), RowError> {
+        if row.width == 0 {
+            return Err(RowError::EmptyRow);
+        }
+        if !(1..=16).contains(&row.bit_depth) {
+            return Err(RowError::BitDepth {
+                bit_depth: row.bit_depth,
+            });
+        }
+        let expected = self.plan.sequence_len().saturating_mul(row.width);
+        if row.frames.len() != expected {
+            return Err(RowError::FramesLength {
+                expected,
+                actual: row.frames.len(),
+            });
+        }
+        if let Some(limits) = row.column_limits {
+            if limits.len() != row.width {
+                return Err(RowError::ColumnLimitsLength {
+                    expected: row.width,
+                    actual: limits.len(),
+                });
+            }
+        }
+        let needed = Self::scratch_len(&self.plan);
+        if scratch.len() < needed {
+            return Err(RowError::ScratchTooShort {
+                needed,
+                got: scratch.len(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Loads the spectrum of `group` at pixel `x` into `scratch`; returns whether a fringe
+    /// sample saturated.
+    fn load(&self, row: &Row<'_>, x: usize, group: Group, scratch: &mut [f32]) -> bool {
+        let start = self.plan.fringe_start(group);
+        let w = row.width;
+        let samples =
+            (0..self.plan.band.count as usize).map(move |m| row.frames[(start + m) * w + x]);
+        let stats = spectrum::compute(
+            &self.plan,
+            samples,
+            self.window,
+            self.inverse_window_sum,
+            saturation_code(row.bit_depth),
+            scratch,
+        );
+        stats.saturated
+    }
+
+    fn search(&self, scratch: &mut [f32]) -> PeakList {
+        let n = self.plan.transform_size as usize;
+        let (spectrum, rest) = scratch.split_at_mut(n + 2);
+        let mut residual = Spectrum::new(spectrum, n);
+        search::find_peaks(&self.plan, &self.kernel, &mut residual, rest)
+    }
+
+    fn decode_checked<const K: usize>(
+        &self,
+        row: &Row<'_>,
+        x: usize,
+        scratch: &mut [f32],
+        out: &mut PixelCandidates<K>,
+    ) {
+        out.clear();
+        let plan = &self.plan;
+        let saturation = saturation_code(row.bit_depth);
+        let mut range = ColumnRange::projector(plan.projector_columns);
+        if let Some(limits) = row.column_limits {
+            range = range.intersect(&limits[x]);
+        }
+        let sample = |frame: usize| row.frames[frame * row.width + x];
+        for group in plan.groups() {
+            if self.load(row, x, group, scratch) {
+                out.flags.insert(PixelFlags::SATURATED);
+            }
+            let peaks = self.search(scratch);
+            let noise_dn = peaks.bin_noise * self.bin_to_sample_noise;
+            out.noise_dn = out.noise_dn.max(noise_dn);
+            match plan.method {
+                Method::Bfsm => {
+                    for (rank, peak) in peaks.peaks.iter().enumerate() {
+                        if range.contains(peak.column) {
+                            let candidate = Candidate {
+                                column: peak.column,
+                                amplitude: peak.amplitude,
+                                groups: GroupSet::only(group),
+                                group,
+                                peak: rank as u8,
+                                block: 0,
+                            };
+                            out.offer(candidate, plan.decoding.merge_tolerance, |_, _| false);
+                        }
+                    }
+                }
+                Method::Efsm(coding) => {
+                    let start = plan.mask_start(group);
+                    // EFSM plans always carry a dark frame (validated).
+                    let dark = plan.dark_index().map_or(0, sample);
+                    let masks = MaskLevels {
+                        sample: |i: u16| sample(start + i as usize),
+                        count: plan.mask_count(group),
+                        dark,
+                        noise_dn,
+                    };
+                    if masks.saturated(saturation) || dark >= saturation {
+                        out.flags.insert(PixelFlags::SATURATED);
+                    }
+                    block::recover(plan, &coding, group, &peaks, &masks, &range, out);
+                }
+            }
+        }
+        out.sort();
+    }
+}
+
+/// Floats of window table: `M` for the Hann window, none for the rectangular one.
+fn window_len(plan: &ScanPlan) -> usize {
+    match plan.decoding.window {
+        Window::Rectangular => 0,
+        Window::Hann => plan.band.count as usize,
+    }
+}
+
+/// The lowest saturated code of a `bits`-bit sensor.
+fn saturation_code(bits: u8) -> u16 {
+    ((1u32 << bits) - 1) as u16
+}

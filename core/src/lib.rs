@@ -1,0 +1,66 @@
+//! # fsm-core: the Frequency Shift Method decoder
+//!
+//! `no_std`, allocation-free decoding of structured-light scans made with the Frequency Shift
+//! Method (Djupkep Dizeu et al., IEEE TIM 2022; conventions in the project's `SPEC.md`). The same
+//! code runs on the camera's ARM core and on the host, and gives bit-identical candidates on both.
+//!
+//! The pipeline of one pixel, one module per stage:
+//!
+//! | stage | module | paper |
+//! |---|---|---|
+//! | what is projected, in which order | [`plan`], [`sequence`] | eqs. 4–8, 14 |
+//! | mean removal, window, zero padding, real DFT | [`spectrum`] | §III-D, eq. 9 |
+//! | modelled spectrum of one lit column | [`kernel`] | SPEC §2 |
+//! | peaks without sidelobes (CLEAN) | [`search`] | §III-D, SPEC §2 |
+//! | sub-pixel column | [`deconvolution`], [`peak`] | refs. [31], [42] |
+//! | EFSM border guard, blocks, candidates | [`block`] | eqs. 16–20 |
+//! | candidates of a pixel | [`candidate`] | eq. 18 |
+//! | one temporal row → candidates of every pixel | [`decoder`] | §III-F, §IV-B |
+//! | expected scatter | [`noise`] | eqs. 21–22 |
+//!
+//! ```
+//! use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
+//!
+//! let plan = ScanPlan::paper_bfsm();
+//! let mut tables = vec![0.0; Decoder::tables_len(&plan)];
+//! let decoder = Decoder::new(&plan, &mut tables).unwrap();
+//! // A row of 2 pixels; pixel 1 is lit by projector column 300 with modulation 100 DN.
+//! let width = 2;
+//! let mut frames = vec![0u16; plan.sequence_len() * width];
+//! for (i, pattern) in plan.sequence().enumerate() {
+//!     frames[i * width] = 20;
+//!     frames[i * width + 1] = (20.0 + 200.0 * plan.intensity(pattern, 300)).round() as u16;
+//! }
+//! let row = Row { frames: &frames, width, bit_depth: 12, column_limits: None };
+//! let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
+//! let mut out = [PixelCandidates::<4>::new(), PixelCandidates::new()];
+//! decoder.decode_row(&row, &mut scratch, &mut out).unwrap();
+//! assert!(out[0].candidates.is_empty());
+//! assert!((out[1].strongest().unwrap().column - 300.0).abs() < 0.05);
+//! ```
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod block;
+pub mod candidate;
+pub mod decoder;
+pub mod deconvolution;
+pub mod kernel;
+pub mod math;
+pub mod noise;
+pub mod peak;
+pub mod plan;
+pub mod search;
+pub mod sequence;
+pub mod spectrum;
+
+pub use candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+pub use decoder::{Decoder, DecoderError, Row, RowError};
+pub use peak::Peak;
+pub use plan::{
+    BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
+    PlanError, References, ScanPlan, Window,
+};
+pub use search::PeakList;
+pub use sequence::{Group, Pattern};

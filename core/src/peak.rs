@@ -1,0 +1,112 @@
+//! Peaks of a spectrum and the magnitude-based sub-pixel estimators of SPEC §2.
+//!
+//! Each estimator returns the offset `δ` (in bins) of the true peak from bin `p`, given the
+//! magnitudes `F[p−4..=p+4]` of the peak's isolated spectrum (other peaks removed); the column is
+//! `(p + δ)·L/N`. The deconvolution estimator lives in [`crate::deconvolution`].
+
+use crate::deconvolution::ColumnWeights;
+use crate::math::{ln, Complex};
+use crate::plan::PeakEstimator;
+
+/// Half-width plus one of the magnitude neighbourhood the estimators read: Blais–Rioux 8 reads `F[p±5]`.
+pub const NEIGHBOURHOOD: usize = 6;
+
+/// One peak of one spectrum: light from one or a few adjacent projector columns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Peak {
+    /// Column in the plan's span domain (`c` for BFSM, `c̃` for EFSM), by the plan's estimator.
+    pub column: f32,
+    /// Fringe modulation of its light, sensor DN: the sum of the non-negative column weights.
+    pub amplitude: f32,
+    /// `|X|` of the isolated peak at `bin`.
+    pub magnitude: f32,
+    /// Bin of the isolated peak's maximum.
+    pub bin: u16,
+    /// The fitted column weights (SPEC §2 local deconvolution).
+    pub weights: ColumnWeights,
+}
+
+/// Magnitudes `F[p−5 ..= p+5]` around a peak bin `p`; bins outside
+/// the spectrum are mirrored (the real spectrum is symmetric about bin 0 and bin N/2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Neighbourhood {
+    /// `F[p + i − 5]` for `i = 0..11`.
+    pub magnitudes: [f32; 2 * NEIGHBOURHOOD - 1],
+}
+
+impl Neighbourhood {
+    /// `F[p + d]`, `|d| ≤ 5`.
+    #[inline]
+    pub fn at(&self, d: i32) -> f32 {
+        self.magnitudes[(d + NEIGHBOURHOOD as i32 - 1) as usize]
+    }
+}
+
+/// Offset of the peak from the centre bin by a magnitude estimator, in bins, or `None` if the
+/// neighbourhood is not a peak the estimator can use (flat, non-positive, or crossing out of
+/// range). `Deconvolution` is not a magnitude estimator and gives `None`.
+pub fn offset(estimator: PeakEstimator, f: &Neighbourhood) -> Option<f32> {
+    let (l, c, r) = (f.at(-1), f.at(0), f.at(1));
+    let delta = match estimator {
+        PeakEstimator::Gaussian => {
+            if l <= 0.0 || c <= 0.0 || r <= 0.0 {
+                return None;
+            }
+            let (ll, lc, lr) = (ln(l), ln(c), ln(r));
+            let den = 2.0 * (ll - 2.0 * lc + lr);
+            if den >= 0.0 {
+                return None;
+            }
+            (ll - lr) / den
+        }
+        PeakEstimator::Parabolic => {
+            let den = 2.0 * (l - 2.0 * c + r);
+            if den >= 0.0 {
+                return None;
+            }
+            (l - r) / den
+        }
+        PeakEstimator::BlaisRioux4 => blais_rioux(f, 2)?,
+        PeakEstimator::BlaisRioux8 => blais_rioux(f, 4)?,
+        PeakEstimator::Deconvolution => return None,
+    };
+    (delta.is_finite() && delta.abs() <= 1.0).then_some(delta)
+}
+
+/// Blais–Rioux detector of order `2·half`: zero crossing of
+/// `g[i] = Σ_{j=1..half} (F[i−j] − F[i+j])` next to the peak, by linear interpolation.
+fn blais_rioux(f: &Neighbourhood, half: i32) -> Option<f32> {
+    let g = |i: i32| -> f32 { (1..=half).map(|j| f.at(i - j) - f.at(i + j)).sum() };
+    let (g_left, g_centre, g_right) = (g(-1), g(0), g(1));
+    // g rises through zero at the peak: negative before it, positive after it.
+    if g_centre <= 0.0 && g_right > 0.0 {
+        Some(g_centre / (g_centre - g_right))
+    } else if g_left <= 0.0 && g_centre > 0.0 {
+        Some(g_left / (g_left - g_centre) - 1.0)
+    } else {
+        None
+    }
+}
+
+/// `|z|` of a bin, with the spectrum's symmetry outside `0..bins`.
+pub(crate) fn mirrored_bin(bin: i64, bins: usize) -> usize {
+    let last = bins as i64 - 1;
+    let period = 2 * last;
+    let b = bin.rem_euclid(period);
+    (if b > last { period - b } else { b }) as usize
+}
+
+/// Builds a neighbourhood from a closure giving the complex value of any bin in range.
+pub(crate) fn neighbourhood(
+    centre: usize,
+    bins: usize,
+    value: impl Fn(usize) -> Complex,
+) -> Neighbourhood {
+    let mut magnitudes = [0.0; 2 * NEIGHBOURHOOD - 1];
+    for (i, m) in magnitudes.iter_mut().enumerate() {
+        let k = mirrored_bin(centre as i64 + i as i64 - (NEIGHBOURHOOD as i64 - 1), bins);
+        *m = value(k).norm();
+    }
+    Neighbourhood { magnitudes }
+}

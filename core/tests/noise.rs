@@ -1,0 +1,124 @@
+//! Monte-Carlo scatter against paper §VI: the DFT magnitude's variance σ²/(2M) (eq. 21) and the
+//! 3-point Gaussian estimator's column variance (eq. 22). The test fails if the measured
+//! variance leaves ±25% of the prediction.
+
+mod support;
+
+use fsm_core::noise::{dft_magnitude_variance, gaussian_column_variance};
+use fsm_core::{Decoder, FringeBand, Group, Method, PeakEstimator, Row, ScanPlan};
+use support::{Noise, Pixel};
+
+/// Quantising to integers adds a uniform error of variance 1/12 DN².
+const QUANTISATION_VARIANCE: f64 = 1.0 / 12.0;
+
+fn variance(xs: &[f64]) -> f64 {
+    let mean = xs.iter().sum::<f64>() / xs.len() as f64;
+    xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (xs.len() - 1) as f64
+}
+
+#[test]
+fn dft_magnitude_scatter_follows_eq_21() {
+    let plan = ScanPlan::paper_bfsm();
+    let mut tables = vec![0.0; Decoder::tables_len(&plan)];
+    let decoder = Decoder::new(&plan, &mut tables).unwrap();
+    let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
+    // Column 300 sits exactly on bin 200 (bins are 1.5 columns apart).
+    let pixel = Pixel::column(300, 800.0);
+    let bin = 200;
+    for sigma in [2.0, 6.0] {
+        let mut noise = Noise::new(21);
+        let magnitudes: Vec<f64> = (0..600)
+            .map(|_| {
+                let s = pixel.samples(&plan, sigma, 16, &mut noise);
+                let row = Row {
+                    frames: &s,
+                    width: 1,
+                    bit_depth: 16,
+                    column_limits: None,
+                };
+                decoder
+                    .spectrum(&row, 0, Group::One, &mut scratch)
+                    .unwrap()
+                    .magnitude(bin) as f64
+            })
+            .collect();
+        let measured = variance(&magnitudes);
+        let effective = sigma * sigma + QUANTISATION_VARIANCE;
+        let predicted = dft_magnitude_variance(effective as f32, plan.band.count as usize) as f64;
+        let ratio = measured / predicted;
+        println!("eq. 21, σ = {sigma} DN: measured {measured:.3e}, predicted {predicted:.3e}, ratio {ratio:.3}");
+        assert!((0.75..=1.25).contains(&ratio), "σ {sigma}: ratio {ratio}");
+    }
+}
+
+#[test]
+fn gaussian_estimator_scatter_follows_eq_22() {
+    // Eq. 22 assumes independent noise in F_l, F, F_r: no zero padding (N = M), so bins are
+    // Δc = 2 columns apart and orthogonal.
+    let plan = ScanPlan {
+        projector_columns: 64,
+        band: FringeBand {
+            period_columns: 128,
+            first_harmonic: 1,
+            count: 64,
+        },
+        transform_size: 64,
+        method: Method::Bfsm,
+        ..ScanPlan::paper_bfsm()
+    };
+    let mut plan = plan;
+    plan.decoding.estimator = PeakEstimator::Gaussian;
+    plan.validate().unwrap();
+    let mut tables = vec![0.0; Decoder::tables_len(&plan)];
+    let decoder = Decoder::new(&plan, &mut tables).unwrap();
+    let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
+    let bw = plan.bin_width();
+    for column in [27u32, 31] {
+        let pixel = Pixel::column(column, 600.0);
+        // Noise-free magnitudes around the peak (16-bit, large signal: quantisation negligible).
+        let clean = pixel.samples(&plan, 0.0, 16, &mut Noise::new(0));
+        let row = Row {
+            frames: &clean,
+            width: 1,
+            bit_depth: 16,
+            column_limits: None,
+        };
+        let spectrum = decoder.spectrum(&row, 0, Group::One, &mut scratch).unwrap();
+        let p = (column as f32 / bw).floor() as usize;
+        let (fl, f, fr) = (
+            spectrum.magnitude(p - 1),
+            spectrum.magnitude(p),
+            spectrum.magnitude(p + 1),
+        );
+        for sigma in [3.0, 8.0] {
+            let effective = sigma * sigma + QUANTISATION_VARIANCE;
+            let dft_var = dft_magnitude_variance(effective as f32, plan.band.count as usize);
+            let predicted = gaussian_column_variance(fl, f, fr, dft_var, bw) as f64;
+            let mut noise = Noise::new(22);
+            let columns: Vec<f64> = (0..1500)
+                .map(|_| {
+                    let s = pixel.samples(&plan, sigma, 16, &mut noise);
+                    let row = Row {
+                        frames: &s,
+                        width: 1,
+                        bit_depth: 16,
+                        column_limits: None,
+                    };
+                    let peaks = decoder.peaks(&row, 0, Group::One, &mut scratch).unwrap();
+                    peaks.peaks[0].column as f64
+                })
+                .collect();
+            let measured = variance(&columns);
+            let ratio = measured / predicted;
+            println!(
+                "eq. 22, column {column}, σ = {sigma} DN: measured {measured:.3e}, predicted {predicted:.3e} \
+                 (the paper's (2Δc)² prefactor would predict {:.3e}), ratio {ratio:.3}",
+                4.0 * predicted
+            );
+            assert!(
+                (0.75..=1.25).contains(&ratio),
+                "column {column} σ {sigma}: ratio {ratio}"
+            );
+        }
+    }
+}

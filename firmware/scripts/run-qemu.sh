@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# Run the firmware ELF under QEMU's Zynq-7000 model and propagate its exit status.
+#
+# Usage: scripts/run-qemu.sh [options] <elf> [input-file]
+#   --icount         instruction-count mode: `-icount shift=$ICOUNT_SHIFT` (default 4) and tell
+#                    the firmware the shift (descriptor "ICNT" at 0x03FFFFE8), so that it prints
+#                    exact instruction counts (`ICOUNT ... instructions=N`). See src/icount.rs.
+#   --selftest NAME  make the firmware take a failure path instead of the demo:
+#                    panic (exit 101), abort (data abort, 102), undef (102), exit:N (N)
+#   --timeout SECS   kill QEMU after SECS seconds (default $QEMU_TIMEOUT or 60): exit code 124
+#   --trace FILE     also log every executed instruction's PC (-d exec,nochain + -singlestep)
+#                    to FILE, for an independent instruction count (slow, large)
+#
+# The input file (at most 64 MiB) is placed raw at 0x04000000 with QEMU's generic loader and
+# its length in the descriptor {"FSMI", length} at 0x03FFFFF0 (src/layout.rs).
+# The firmware's console output (semihosting) goes to stdout, this script's and QEMU's own
+# messages to stderr. Semihosting file paths (fw-out.bin, defmt.bin) are relative to the
+# current directory.
+# Exit status: QEMU's, i.e. the firmware's semihosting exit code (0 = success, 101 = panic,
+# 102 = CPU exception), 124 on timeout.
+set -euo pipefail
+
+QEMU="${QEMU:-qemu-system-arm}"
+TIMEOUT="${QEMU_TIMEOUT:-60}"
+ICOUNT=0
+SHIFT="${ICOUNT_SHIFT:-4}"
+SELFTEST=""
+TRACE=""
+
+usage() { sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --icount) ICOUNT=1 ;;
+        --selftest) [ $# -ge 2 ] || usage; SELFTEST="$2"; shift ;;
+        --timeout) [ $# -ge 2 ] || usage; TIMEOUT="$2"; shift ;;
+        --trace) [ $# -ge 2 ] || usage; TRACE="$2"; shift ;;
+        -h|--help) usage ;;
+        --) shift; break ;;
+        -*) echo "run-qemu: unknown option $1" >&2; usage ;;
+        *) break ;;
+    esac
+    shift
+done
+[ $# -ge 1 ] && [ $# -le 2 ] || usage
+ELF="$1"
+INPUT="${2:-}"
+[ -f "$ELF" ] || { echo "run-qemu: no such ELF: $ELF" >&2; exit 2; }
+command -v "$QEMU" >/dev/null || { echo "run-qemu: $QEMU not found: run scripts/install-toolchain.sh" >&2; exit 2; }
+
+# Mailbox addresses: keep in sync with src/layout.rs and src/icount.rs.
+INPUT_ADDR=0x04000000
+INPUT_MAX=$((0x04000000))
+INPUT_DESC=0x03fffff0
+ICOUNT_DESC=0x03ffffe8
+SELFTEST_DESC=0x03ffffe0
+MAGIC_FSMI=0x494d5346   # "FSMI"
+MAGIC_ICNT=0x544e4349   # "ICNT"
+MAGIC_TEST=0x54534554   # "TEST"
+
+word() { # addr value: one little-endian u32 written by QEMU's generic loader
+    printf -- '-device\nloader,addr=%s,data=%s,data-len=4\n' "$1" "$2"
+}
+
+# `-semihosting` alone would print the firmware's console output on QEMU's stderr (QEMU 7.2);
+# routing it through a stdio chardev puts it on stdout, leaving stderr to QEMU and this script.
+args=(-M xilinx-zynq-a9 -nographic -monitor none -serial null
+      -chardev stdio,id=semihost -semihosting-config enable=on,target=native,chardev=semihost)
+
+if [ -n "$INPUT" ]; then
+    [ -f "$INPUT" ] || { echo "run-qemu: no such input file: $INPUT" >&2; exit 2; }
+    len=$(stat -c %s "$INPUT")
+    [ "$len" -le "$INPUT_MAX" ] || { echo "run-qemu: input is $len bytes, more than $INPUT_MAX" >&2; exit 2; }
+    case "$INPUT" in *,*) echo "run-qemu: input path must not contain a comma" >&2; exit 2 ;; esac
+    args+=(-device "loader,file=$INPUT,addr=$INPUT_ADDR,force-raw=on")
+    mapfile -t -O "${#args[@]}" args < <(word "$INPUT_DESC" "$MAGIC_FSMI"; word "$((0x03fffff4))" "$len")
+fi
+
+if [ "$ICOUNT" = 1 ]; then
+    args+=(-icount "shift=$SHIFT")
+    mapfile -t -O "${#args[@]}" args < <(word "$ICOUNT_DESC" "$MAGIC_ICNT"; word "$((0x03ffffec))" "$SHIFT")
+fi
+
+if [ -n "$SELFTEST" ]; then
+    case "$SELFTEST" in
+        panic) req=1 ;;
+        abort) req=2 ;;
+        undef) req=3 ;;
+        exit:*) n="${SELFTEST#exit:}"; [ "$n" -ge 1 ] && [ "$n" -le 255 ] || usage; req=$((0x100 + n)) ;;
+        *) usage ;;
+    esac
+    mapfile -t -O "${#args[@]}" args < <(word "$SELFTEST_DESC" "$MAGIC_TEST"; word "$((0x03ffffe4))" "$req")
+fi
+
+if [ -n "$TRACE" ]; then
+    # QEMU 7.2 calls one-instruction-per-TB `-singlestep` (later: -accel tcg,one-insn-per-tb=on).
+    args+=(-singlestep -d exec,nochain -D "$TRACE")
+fi
+
+args+=(-kernel "$ELF")
+
+start=$(date +%s%N)
+set +e
+timeout --kill-after=5 "$TIMEOUT" "$QEMU" "${args[@]}" </dev/null
+rc=$?
+set -e
+ms=$(( ($(date +%s%N) - start) / 1000000 ))
+if [ "$rc" = 124 ]; then
+    echo "run-qemu: TIMEOUT after ${TIMEOUT}s" >&2
+fi
+echo "run-qemu: exit code $rc, wall time ${ms} ms" >&2
+exit "$rc"

@@ -1,0 +1,116 @@
+//! The firmware's memory map (first 128 MiB of Zynq DDR). Keep in sync with `link.x` and
+//! `scripts/run-qemu.sh`.
+//!
+//! Input bytes are put into RAM by QEMU before the CPU starts:
+//! `-device loader,file=<input>,addr=0x04000000,force-raw=on` for the bytes, and two 32-bit
+//! words (`-device loader,addr=...,data=...,data-len=4`) for the descriptor `{magic, length}`
+//! at [`INPUT_DESC_ADDR`]. `scripts/run-qemu.sh <elf> <input>` does both.
+
+/// Start of the RAM region the image is linked into.
+pub const RAM_BASE: usize = 0x0010_0000;
+/// End (exclusive) of that region; the main stack ends here.
+pub const RAM_END: usize = 0x03F0_0000;
+/// Address of the input descriptor: `u32` magic [`INPUT_MAGIC`], then `u32` length in bytes.
+pub const INPUT_DESC_ADDR: usize = 0x03FF_FFF0;
+/// "FSMI" as a little-endian `u32`.
+pub const INPUT_MAGIC: u32 = u32::from_le_bytes(*b"FSMI");
+/// Where the input bytes start.
+pub const INPUT_BASE: usize = 0x0400_0000;
+/// Largest input that fits below the end of QEMU's default 128 MiB of DDR.
+pub const INPUT_MAX_LEN: usize = 0x0400_0000;
+
+/// Address of the self-test descriptor: `u32` magic [`SELFTEST_MAGIC`], then `u32` request
+/// (see [`SelfTest`]). Written by `scripts/run-qemu.sh --selftest <name>` to check that every
+/// failure path ends QEMU with the right exit code.
+pub const SELFTEST_DESC_ADDR: usize = 0x03FF_FFE0;
+/// "TEST" as a little-endian `u32`.
+pub const SELFTEST_MAGIC: u32 = u32::from_le_bytes(*b"TEST");
+
+/// Failure paths the firmware can be asked to take instead of running the demo.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SelfTest {
+    /// `panic!` -> panic handler -> QEMU exit code 101.
+    Panic,
+    /// Load from the unmapped first MiB -> data abort -> exit code 102.
+    DataAbort,
+    /// `udf` -> undefined-instruction exception -> exit code 102.
+    Undefined,
+    /// Semihosting exit with this code (1..=255).
+    Exit(u8),
+}
+
+impl SelfTest {
+    /// Decode the request word: 1 panic, 2 data abort, 3 undefined, 0x100 + n exit(n).
+    pub fn from_word(w: u32) -> Option<SelfTest> {
+        match w {
+            1 => Some(SelfTest::Panic),
+            2 => Some(SelfTest::DataAbort),
+            3 => Some(SelfTest::Undefined),
+            0x101..=0x1FF => Some(SelfTest::Exit((w - 0x100) as u8)),
+            _ => None,
+        }
+    }
+}
+
+/// The self-test request, if a valid descriptor is present.
+#[cfg(target_os = "none")]
+pub fn selftest() -> Option<SelfTest> {
+    let d = SELFTEST_DESC_ADDR as *const u32;
+    // SAFETY: fixed mailbox address in DDR outside the image (see link.x).
+    let (magic, w) = unsafe { (d.read_volatile(), d.add(1).read_volatile()) };
+    if magic == SELFTEST_MAGIC {
+        SelfTest::from_word(w)
+    } else {
+        None
+    }
+}
+
+const _: () = assert!(
+    RAM_END <= SELFTEST_DESC_ADDR && SELFTEST_DESC_ADDR + 8 <= crate::icount::ICOUNT_DESC_ADDR
+);
+// The regions must not overlap, and the input window must end with QEMU's default 128 MiB.
+const _: () =
+    assert!(RAM_BASE < RAM_END && RAM_END <= INPUT_DESC_ADDR && INPUT_DESC_ADDR + 8 <= INPUT_BASE);
+const _: () = assert!(INPUT_BASE + INPUT_MAX_LEN == 0x0800_0000);
+
+/// Validate a descriptor: the input length if the magic matches and the length fits.
+pub fn input_len_from_descriptor(magic: u32, len: u32) -> Option<usize> {
+    (magic == INPUT_MAGIC && (len as usize) <= INPUT_MAX_LEN).then_some(len as usize)
+}
+
+/// The input bytes that QEMU's loader placed in RAM, if a valid descriptor is present.
+#[cfg(target_os = "none")]
+pub fn input() -> Option<&'static [u8]> {
+    let desc = INPUT_DESC_ADDR as *const u32;
+    // SAFETY: fixed addresses in DDR outside the image (see link.x); read-only use.
+    let (magic, len) = unsafe { (desc.read_volatile(), desc.add(1).read_volatile()) };
+    let len = input_len_from_descriptor(magic, len)?;
+    Some(unsafe { core::slice::from_raw_parts(INPUT_BASE as *const u8, len) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn selftest_words() {
+        assert_eq!(SELFTEST_MAGIC, 0x5453_4554);
+        assert_eq!(SelfTest::from_word(1), Some(SelfTest::Panic));
+        assert_eq!(SelfTest::from_word(2), Some(SelfTest::DataAbort));
+        assert_eq!(SelfTest::from_word(3), Some(SelfTest::Undefined));
+        assert_eq!(SelfTest::from_word(0x100 + 7), Some(SelfTest::Exit(7)));
+        assert_eq!(SelfTest::from_word(0x100), None);
+        assert_eq!(SelfTest::from_word(0), None);
+    }
+
+    #[test]
+    fn descriptor() {
+        assert_eq!(INPUT_MAGIC, 0x494D_5346);
+        assert_eq!(input_len_from_descriptor(INPUT_MAGIC, 16), Some(16));
+        assert_eq!(input_len_from_descriptor(0, 16), None);
+        assert_eq!(
+            input_len_from_descriptor(INPUT_MAGIC, (INPUT_MAX_LEN + 1) as u32),
+            None
+        );
+    }
+}
