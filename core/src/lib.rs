@@ -17,6 +17,7 @@
 //! | candidates of a pixel | [`candidate`] | eq. 18 |
 //! | one temporal row → candidates of every pixel | [`decoder`] | §III-F, §IV-B |
 //! | expected scatter | [`noise`] | eqs. 21–22 |
+//! | plans, row dumps, candidate rows as bytes | [`wire`] | SPEC §6 |
 //!
 //! ```
 //! use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
@@ -54,6 +55,7 @@ pub mod plan;
 pub mod search;
 pub mod sequence;
 pub mod spectrum;
+pub mod wire;
 
 pub use candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
 pub use decoder::{Decoder, DecoderError, Row, RowError};

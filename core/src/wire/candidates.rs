@@ -1,0 +1,373 @@
+//! Candidate rows: the decoded candidates of every pixel of a row, as the camera streams them
+//! and as `fsm decode` stores them. The same bytes whichever side decoded the row.
+//!
+//! A candidate file is a 64-byte header followed by one record per row. Little-endian.
+//!
+//! Header:
+//!
+//! | offset | type | field |
+//! |---|---|---|
+//! | 0 | `[u8; 8]` | magic `FSMCAND\0` |
+//! | 8 | u16 | version, 1 |
+//! | 10 | u16 | header length, 64 |
+//! | 12 | u16 | capacity: most candidates a pixel may carry |
+//! | 14 | u16 | reserved, 0 |
+//! | 16 | u64 | plan fingerprint |
+//! | 24 | u32 | width `W` |
+//! | 28 | u32 | height `H` |
+//! | 32 | `[u8; 28]` | reserved, 0 |
+//! | 60 | u32 | CRC-32 of bytes 0–59 |
+//!
+//! Record:
+//!
+//! | offset | type | field |
+//! |---|---|---|
+//! | 0 | u32 | row index `y < H` |
+//! | 4 | u32 | payload length `P` |
+//! | 8 | `[u8; P]` | `W` pixels, each: u8 flags, u8 count `n`, f32 noise (DN), then `n` candidates |
+//! | 8 + P | u32 | CRC-32 of bytes 0 to 8 + P |
+//!
+//! Candidate (16 bytes): f32 column, f32 amplitude (DN), u16 block, u8 groups (bit 0 group 1,
+//! bit 1 group 2), u8 source group (1 or 2), u8 peak rank, 3 reserved bytes (0).
+
+use super::{begin_header, crc32, open_header, seal_header, Reader, WireError, Writer, HEADER_LEN};
+use crate::candidate::{Candidate, GroupSet, PixelCandidates, PixelFlags};
+use crate::sequence::Group;
+
+/// Magic bytes of a candidate file.
+pub const MAGIC: [u8; 8] = *b"FSMCAND\0";
+/// Version this build writes and reads.
+pub const VERSION: u16 = 1;
+/// Bytes of one candidate.
+pub const CANDIDATE_LEN: usize = 16;
+/// Bytes of a pixel's fixed part (flags, count, noise).
+pub const PIXEL_LEN: usize = 6;
+/// Bytes of a record around its payload (row, length, CRC).
+pub const RECORD_OVERHEAD: usize = 12;
+
+const WHAT: &str = "candidate rows";
+
+/// The header of a candidate file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CandidateHeader {
+    /// Most candidates per pixel.
+    pub capacity: u16,
+    /// Fingerprint of the plan the candidates were decoded with.
+    pub plan_fingerprint: u64,
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows in the scan.
+    pub height: u32,
+}
+
+impl CandidateHeader {
+    /// The 64 header bytes.
+    pub fn encode(&self) -> [u8; HEADER_LEN] {
+        let mut out = [0u8; HEADER_LEN];
+        let mut w = begin_header(&MAGIC, VERSION, &mut out);
+        w.u16(self.capacity);
+        w.u16(0);
+        w.u64(self.plan_fingerprint);
+        w.u32(self.width);
+        w.u32(self.height);
+        seal_header(&mut out);
+        out
+    }
+
+    /// Reads and checks a header.
+    pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
+        let mut r = open_header(WHAT, &MAGIC, VERSION, bytes)?;
+        let capacity = r.u16();
+        let _reserved = r.u16();
+        let header = CandidateHeader {
+            capacity,
+            plan_fingerprint: r.u64(),
+            width: r.u32(),
+            height: r.u32(),
+        };
+        if header.width == 0 {
+            return Err(WireError::Field {
+                what: WHAT,
+                field: "width",
+                value: 0,
+            });
+        }
+        if header.capacity == 0 || header.capacity > u8::MAX as u16 {
+            return Err(WireError::Field {
+                what: WHAT,
+                field: "capacity",
+                value: capacity as u64,
+            });
+        }
+        Ok(header)
+    }
+
+    /// Largest record this header allows, or `None` if it would not fit in memory addresses.
+    pub fn max_record_len(&self) -> Option<usize> {
+        (self.capacity as usize * CANDIDATE_LEN + PIXEL_LEN)
+            .checked_mul(self.width as usize)?
+            .checked_add(RECORD_OVERHEAD)
+    }
+}
+
+/// Bytes the record of `pixels` takes.
+pub fn record_len<const K: usize>(pixels: &[PixelCandidates<K>]) -> usize {
+    RECORD_OVERHEAD
+        + pixels
+            .iter()
+            .map(|p| PIXEL_LEN + CANDIDATE_LEN * p.candidates.len())
+            .sum::<usize>()
+}
+
+/// Writes the record of row `row` into `out`; returns its length.
+pub fn encode_record<const K: usize>(
+    header: &CandidateHeader,
+    row: u32,
+    pixels: &[PixelCandidates<K>],
+    out: &mut [u8],
+) -> Result<usize, WireError> {
+    if pixels.len() != header.width as usize {
+        return Err(WireError::Field {
+            what: WHAT,
+            field: "width",
+            value: pixels.len() as u64,
+        });
+    }
+    if row >= header.height {
+        return Err(WireError::RowOutOfRange {
+            what: WHAT,
+            row,
+            height: header.height,
+        });
+    }
+    if K > header.capacity as usize {
+        return Err(WireError::Field {
+            what: WHAT,
+            field: "capacity",
+            value: K as u64,
+        });
+    }
+    let len = record_len(pixels);
+    let got = out.len();
+    let out = out.get_mut(..len).ok_or(WireError::BufferTooSmall {
+        what: WHAT,
+        needed: len,
+        got,
+    })?;
+    let mut w = Writer::new(&mut *out);
+    w.u32(row);
+    w.u32((len - RECORD_OVERHEAD) as u32);
+    for p in pixels {
+        w.u8(p.flags.0);
+        w.u8(p.candidates.len() as u8);
+        w.f32(p.noise_dn);
+        for c in &p.candidates {
+            w.f32(c.column);
+            w.f32(c.amplitude);
+            w.u16(c.block);
+            w.u8(c.groups.0);
+            w.u8(c.group.number());
+            w.u8(c.peak);
+            w.put(&[0; 3]);
+        }
+    }
+    let crc = crc32(&out[..len - 4]);
+    out[len - 4..].copy_from_slice(&crc.to_le_bytes());
+    Ok(len)
+}
+
+/// A checked record: its row and its payload.
+#[derive(Clone, Copy, Debug)]
+pub struct CandidateRecord<'a> {
+    /// Camera row.
+    pub row: u32,
+    payload: &'a [u8],
+    /// Bytes the record took, header to CRC.
+    pub len: usize,
+}
+
+/// Reads the record at the start of `bytes`: length, CRC, row range and the structure of every
+/// pixel are checked before anything is returned.
+pub fn decode_record<'a>(
+    header: &CandidateHeader,
+    bytes: &'a [u8],
+) -> Result<CandidateRecord<'a>, WireError> {
+    if bytes.len() < 8 {
+        return Err(WireError::Truncated {
+            what: WHAT,
+            needed: 8,
+            got: bytes.len(),
+        });
+    }
+    let mut r = Reader::new(bytes);
+    let row = r.u32();
+    let payload_len = r.u32() as usize;
+    let max = header.max_record_len().unwrap_or(usize::MAX) - RECORD_OVERHEAD;
+    if payload_len > max {
+        return Err(WireError::Field {
+            what: WHAT,
+            field: "payload_len",
+            value: payload_len as u64,
+        });
+    }
+    let len = payload_len + RECORD_OVERHEAD;
+    if bytes.len() < len {
+        return Err(WireError::Truncated {
+            what: WHAT,
+            needed: len,
+            got: bytes.len(),
+        });
+    }
+    let stored = u32::from_le_bytes([
+        bytes[len - 4],
+        bytes[len - 3],
+        bytes[len - 2],
+        bytes[len - 1],
+    ]);
+    let computed = crc32(&bytes[..len - 4]);
+    if stored != computed {
+        return Err(WireError::RecordCrc {
+            what: WHAT,
+            row,
+            stored,
+            computed,
+        });
+    }
+    if row >= header.height {
+        return Err(WireError::RowOutOfRange {
+            what: WHAT,
+            row,
+            height: header.height,
+        });
+    }
+    let record = CandidateRecord {
+        row,
+        payload: &bytes[8..len - 4],
+        len,
+    };
+    record.walk(header, |_, _| Ok(()))?;
+    Ok(record)
+}
+
+impl CandidateRecord<'_> {
+    /// Decodes every pixel into `out` (length `W`); fails if a pixel has more than `K`.
+    pub fn read_into<const K: usize>(
+        &self,
+        header: &CandidateHeader,
+        out: &mut [PixelCandidates<K>],
+    ) -> Result<(), WireError> {
+        if out.len() != header.width as usize {
+            return Err(WireError::BufferTooSmall {
+                what: WHAT,
+                needed: header.width as usize,
+                got: out.len(),
+            });
+        }
+        for p in out.iter_mut() {
+            p.clear();
+        }
+        self.walk(header, |x, item| {
+            let p = &mut out[x];
+            match item {
+                Item::Pixel { flags, noise_dn } => {
+                    p.flags = flags;
+                    p.noise_dn = noise_dn;
+                    Ok(())
+                }
+                Item::Candidate(c) => p.candidates.push(c).map_err(|_| WireError::Field {
+                    what: WHAT,
+                    field: "count",
+                    value: K as u64 + 1,
+                }),
+            }
+        })
+    }
+
+    /// Visits every pixel and candidate in order, checking each field.
+    fn walk(
+        &self,
+        header: &CandidateHeader,
+        mut visit: impl FnMut(usize, Item) -> Result<(), WireError>,
+    ) -> Result<(), WireError> {
+        let field = |field: &'static str, value: u64| WireError::Field {
+            what: WHAT,
+            field,
+            value,
+        };
+        let truncated = |needed: usize| WireError::Truncated {
+            what: WHAT,
+            needed,
+            got: self.payload.len(),
+        };
+        let mut r = Reader::new(self.payload);
+        for x in 0..header.width as usize {
+            if r.at + PIXEL_LEN > self.payload.len() {
+                return Err(truncated(r.at + PIXEL_LEN));
+            }
+            let flags = r.u8();
+            let count = r.u8();
+            let noise_dn = r.f32();
+            if count as u16 > header.capacity {
+                return Err(field("count", count as u64));
+            }
+            if !noise_dn.is_finite() {
+                return Err(field("noise_dn", noise_dn.to_bits() as u64));
+            }
+            visit(
+                x,
+                Item::Pixel {
+                    flags: PixelFlags(flags),
+                    noise_dn,
+                },
+            )?;
+            let needed = r.at + count as usize * CANDIDATE_LEN;
+            if needed > self.payload.len() {
+                return Err(truncated(needed));
+            }
+            for _ in 0..count {
+                let column = r.f32();
+                let amplitude = r.f32();
+                let block = r.u16();
+                let groups = r.u8();
+                let group = match r.u8() {
+                    1 => Group::One,
+                    2 => Group::Two,
+                    g => return Err(field("group", g as u64)),
+                };
+                let peak = r.u8();
+                let reserved: [u8; 3] = r.take();
+                if groups == 0 || groups > 3 || groups & (1 << group.index()) == 0 {
+                    return Err(field("groups", groups as u64));
+                }
+                if reserved != [0; 3] {
+                    return Err(field("reserved", 0));
+                }
+                if !column.is_finite() {
+                    return Err(field("column", column.to_bits() as u64));
+                }
+                if !amplitude.is_finite() {
+                    return Err(field("amplitude", amplitude.to_bits() as u64));
+                }
+                let c = Candidate {
+                    column,
+                    amplitude,
+                    groups: GroupSet(groups),
+                    group,
+                    peak,
+                    block,
+                };
+                visit(x, Item::Candidate(c))?;
+            }
+        }
+        if r.at != self.payload.len() {
+            return Err(field("payload_len", self.payload.len() as u64));
+        }
+        Ok(())
+    }
+}
+
+enum Item {
+    Pixel { flags: PixelFlags, noise_dn: f32 },
+    Candidate(Candidate),
+}

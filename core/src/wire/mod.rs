@@ -1,0 +1,259 @@
+//! Byte formats that cross a boundary (SPEC §6): little-endian, versioned, CRC-checked.
+//!
+//! | format | module | who writes it | who reads it |
+//! |---|---|---|---|
+//! | scan plan, 64 bytes, and its fingerprint | [`plan`] | host | camera, every file header |
+//! | raw temporal rows of a scan | [`row_dump`] | camera, simulator | `fsm decode` |
+//! | candidate rows | [`candidates`] | camera, `fsm decode` | `fsm scan`, tests |
+//!
+//! Readers never return part of a record as if it were whole: a short buffer, a wrong magic,
+//! an unknown version, a bad CRC or an out-of-range field is an error that names the format,
+//! the field and, for records, the row.
+
+pub mod candidates;
+pub mod plan;
+pub mod row_dump;
+
+use core::fmt;
+
+use crate::plan::PlanError;
+
+/// CRC-32 (ISO-HDLC, the zlib/PNG one) of every record.
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// CRC-64 (XZ) of plan fingerprints.
+const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
+
+/// CRC-32 (ISO-HDLC) of `bytes`.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
+/// What is wrong with some bytes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(missing_docs)] // each field is the value the variant reports
+pub enum WireError {
+    /// Fewer bytes than the format needs.
+    Truncated {
+        what: &'static str,
+        needed: usize,
+        got: usize,
+    },
+    /// The bytes do not start with the format's magic.
+    Magic { what: &'static str },
+    /// A version this build does not read.
+    Version {
+        what: &'static str,
+        version: u16,
+        supported: u16,
+    },
+    /// The header's CRC does not match its bytes.
+    HeaderCrc {
+        what: &'static str,
+        stored: u32,
+        computed: u32,
+    },
+    /// A record's CRC does not match its bytes.
+    RecordCrc {
+        what: &'static str,
+        row: u32,
+        stored: u32,
+        computed: u32,
+    },
+    /// A field holds a value the format does not allow.
+    Field {
+        what: &'static str,
+        field: &'static str,
+        value: u64,
+    },
+    /// A record's row index is not below the header's height.
+    RowOutOfRange {
+        what: &'static str,
+        row: u32,
+        height: u32,
+    },
+    /// A decoded plan breaks a rule.
+    Plan(PlanError),
+    /// The output buffer is too small.
+    BufferTooSmall {
+        what: &'static str,
+        needed: usize,
+        got: usize,
+    },
+}
+
+impl fmt::Display for WireError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            WireError::Truncated { what, needed, got } => {
+                write!(f, "{what}: truncated, {needed} bytes needed, {got} present")
+            }
+            WireError::Magic { what } => write!(f, "{what}: not this format (wrong magic bytes)"),
+            WireError::Version { what, version, supported } => write!(
+                f,
+                "{what}: format version {version} is not supported (this build reads version {supported})"
+            ),
+            WireError::HeaderCrc { what, stored, computed } => write!(
+                f,
+                "{what}: header CRC mismatch (stored {stored:08x}, computed {computed:08x})"
+            ),
+            WireError::RecordCrc { what, row, stored, computed } => write!(
+                f,
+                "{what}: record of row {row} is corrupted (CRC stored {stored:08x}, computed {computed:08x})"
+            ),
+            WireError::Field { what, field, value } => {
+                write!(f, "{what}: field {field} has the invalid value {value}")
+            }
+            WireError::RowOutOfRange { what, row, height } => {
+                write!(f, "{what}: row {row} is outside the image height {height}")
+            }
+            WireError::Plan(e) => write!(f, "scan plan: {e}"),
+            WireError::BufferTooSmall { what, needed, got } => {
+                write!(f, "{what}: output buffer holds {got} bytes, {needed} needed")
+            }
+        }
+    }
+}
+
+/// Little-endian reads from a slice whose length was checked beforehand.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn new(bytes: &'a [u8]) -> Self {
+        Reader { bytes, at: 0 }
+    }
+
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let mut out = [0u8; N];
+        out.copy_from_slice(&self.bytes[self.at..self.at + N]);
+        self.at += N;
+        out
+    }
+
+    fn u8(&mut self) -> u8 {
+        self.take::<1>()[0]
+    }
+
+    fn u16(&mut self) -> u16 {
+        u16::from_le_bytes(self.take())
+    }
+
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+
+    fn u64(&mut self) -> u64 {
+        u64::from_le_bytes(self.take())
+    }
+
+    fn f32(&mut self) -> f32 {
+        f32::from_le_bytes(self.take())
+    }
+}
+
+/// Little-endian writes into a slice whose length was checked beforehand.
+struct Writer<'a> {
+    bytes: &'a mut [u8],
+    at: usize,
+}
+
+impl<'a> Writer<'a> {
+    fn new(bytes: &'a mut [u8]) -> Self {
+        Writer { bytes, at: 0 }
+    }
+
+    fn put(&mut self, b: &[u8]) {
+        self.bytes[self.at..self.at + b.len()].copy_from_slice(b);
+        self.at += b.len();
+    }
+
+    fn u8(&mut self, v: u8) {
+        self.put(&[v]);
+    }
+
+    fn u16(&mut self, v: u16) {
+        self.put(&v.to_le_bytes());
+    }
+
+    fn u32(&mut self, v: u32) {
+        self.put(&v.to_le_bytes());
+    }
+
+    fn u64(&mut self, v: u64) {
+        self.put(&v.to_le_bytes());
+    }
+
+    fn f32(&mut self, v: f32) {
+        self.put(&v.to_le_bytes());
+    }
+}
+
+/// Length of the fixed file headers of [`row_dump`] and [`candidates`].
+pub const HEADER_LEN: usize = 64;
+
+/// Checks the magic, version, length and CRC shared by the 64-byte file headers; returns a
+/// reader positioned after the version and header-length fields (offset 12).
+fn open_header<'a>(
+    what: &'static str,
+    magic: &[u8; 8],
+    version: u16,
+    bytes: &'a [u8],
+) -> Result<Reader<'a>, WireError> {
+    if bytes.len() < HEADER_LEN {
+        return Err(WireError::Truncated {
+            what,
+            needed: HEADER_LEN,
+            got: bytes.len(),
+        });
+    }
+    if &bytes[..8] != magic {
+        return Err(WireError::Magic { what });
+    }
+    let mut r = Reader::new(&bytes[..HEADER_LEN]);
+    r.at = 8;
+    let found = r.u16();
+    if found != version {
+        return Err(WireError::Version {
+            what,
+            version: found,
+            supported: version,
+        });
+    }
+    let len = r.u16();
+    if len as usize != HEADER_LEN {
+        return Err(WireError::Field {
+            what,
+            field: "header_len",
+            value: len as u64,
+        });
+    }
+    let stored = u32::from_le_bytes([bytes[60], bytes[61], bytes[62], bytes[63]]);
+    let computed = crc32(&bytes[..60]);
+    if stored != computed {
+        return Err(WireError::HeaderCrc {
+            what,
+            stored,
+            computed,
+        });
+    }
+    Ok(r)
+}
+
+/// Writes magic, version and length, leaving the writer at offset 12; [`seal_header`] adds the
+/// CRC once the rest is written.
+fn begin_header<'a>(magic: &[u8; 8], version: u16, out: &'a mut [u8; HEADER_LEN]) -> Writer<'a> {
+    out.fill(0);
+    let mut w = Writer::new(out);
+    w.put(magic);
+    w.u16(version);
+    w.u16(HEADER_LEN as u16);
+    w
+}
+
+fn seal_header(out: &mut [u8; HEADER_LEN]) {
+    let crc = crc32(&out[..60]);
+    out[60..].copy_from_slice(&crc.to_le_bytes());
+}

@@ -1,0 +1,206 @@
+//! The canonical 64-byte encoding of a scan plan, and its fingerprint.
+//!
+//! Every file and message that depends on a plan carries the plan's fingerprint (CRC-64/XZ of
+//! these bytes), so a dump recorded with one plan cannot be decoded with another. The same
+//! bytes are the compact form a camera stores. Little-endian:
+//!
+//! | offset | type | field |
+//! |---|---|---|
+//! | 0 | u16 | `projector_columns` (`cmax`) |
+//! | 2 | u16 | `transform_size` (`N`) |
+//! | 4 | u32 | `band.period_columns` (`L`) |
+//! | 8 | u32 | `band.first_harmonic` (`n₁`) |
+//! | 12 | u16 | `band.count` (`M`) |
+//! | 14 | u8 | method: 0 BFSM, 1 EFSM |
+//! | 15 | u8 | EFSM groups: 1 or 2 (0 for BFSM) |
+//! | 16 | u16 | EFSM `block_width` (0 for BFSM) |
+//! | 18 | u16 | reserved, 0 |
+//! | 20 | f32 | EFSM `border_guard` (0 for BFSM) |
+//! | 24 | f32 | `levels.offset` (`PA`) |
+//! | 28 | f32 | `levels.amplitude` (`PB`) |
+//! | 32 | u8 | references: bit 0 dark, bit 1 white |
+//! | 33 | u8 | window: 0 rectangular, 1 Hann |
+//! | 34 | u8 | estimator: 0 deconvolution, 1 Gaussian, 2 parabolic, 3 Blais–Rioux 4, 4 Blais–Rioux 8 |
+//! | 35 | u8 | `max_peaks` |
+//! | 36 | f32 × 6 | `noise_factor`, `relative_floor`, `min_amplitude_dn`, `mask_noise_factor`, `mask_relative_floor`, `merge_tolerance` |
+//! | 60 | u16 | format version, 1 |
+//! | 62 | u16 | reserved, 0 |
+
+use super::{Reader, WireError, Writer, CRC64};
+use crate::plan::{
+    BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
+    References, ScanPlan, Window,
+};
+
+/// Length of an encoded plan.
+pub const PLAN_LEN: usize = 64;
+/// Version of the plan encoding this build writes and reads.
+pub const PLAN_VERSION: u16 = 1;
+
+const WHAT: &str = "scan plan";
+
+impl ScanPlan {
+    /// The canonical bytes of the plan.
+    pub fn to_bytes(&self) -> [u8; PLAN_LEN] {
+        let mut out = [0u8; PLAN_LEN];
+        let mut w = Writer::new(&mut out);
+        w.u16(self.projector_columns);
+        w.u16(self.transform_size);
+        w.u32(self.band.period_columns);
+        w.u32(self.band.first_harmonic);
+        w.u16(self.band.count);
+        let (method, groups, width, guard) = match self.method {
+            Method::Bfsm => (0, 0, 0, 0.0),
+            Method::Efsm(b) => {
+                let g = match b.groups {
+                    GroupCount::One => 1,
+                    GroupCount::Two => 2,
+                };
+                (1, g, b.block_width, b.border_guard)
+            }
+        };
+        w.u8(method);
+        w.u8(groups);
+        w.u16(width);
+        w.u16(0);
+        w.f32(guard);
+        w.f32(self.levels.offset);
+        w.f32(self.levels.amplitude);
+        w.u8(self.references.dark as u8 | (self.references.white as u8) << 1);
+        let d = self.decoding;
+        w.u8(match d.window {
+            Window::Rectangular => 0,
+            Window::Hann => 1,
+        });
+        w.u8(match d.estimator {
+            PeakEstimator::Deconvolution => 0,
+            PeakEstimator::Gaussian => 1,
+            PeakEstimator::Parabolic => 2,
+            PeakEstimator::BlaisRioux4 => 3,
+            PeakEstimator::BlaisRioux8 => 4,
+        });
+        w.u8(d.max_peaks);
+        for v in [
+            d.noise_factor,
+            d.relative_floor,
+            d.min_amplitude_dn,
+            d.mask_noise_factor,
+            d.mask_relative_floor,
+            d.merge_tolerance,
+        ] {
+            w.f32(v);
+        }
+        w.u16(PLAN_VERSION);
+        w.u16(0);
+        out
+    }
+
+    /// Decodes and validates canonical plan bytes.
+    pub fn from_bytes(bytes: &[u8]) -> Result<ScanPlan, WireError> {
+        if bytes.len() < PLAN_LEN {
+            return Err(WireError::Truncated {
+                what: WHAT,
+                needed: PLAN_LEN,
+                got: bytes.len(),
+            });
+        }
+        let field = |field: &'static str, value: u64| WireError::Field {
+            what: WHAT,
+            field,
+            value,
+        };
+        let mut tail = Reader::new(&bytes[60..PLAN_LEN]);
+        let version = tail.u16();
+        if version != PLAN_VERSION {
+            return Err(WireError::Version {
+                what: WHAT,
+                version,
+                supported: PLAN_VERSION,
+            });
+        }
+        let mut r = Reader::new(&bytes[..PLAN_LEN]);
+        let projector_columns = r.u16();
+        let transform_size = r.u16();
+        let band = FringeBand {
+            period_columns: r.u32(),
+            first_harmonic: r.u32(),
+            count: r.u16(),
+        };
+        let (method, groups, block_width, reserved, border_guard) =
+            (r.u8(), r.u8(), r.u16(), r.u16(), r.f32());
+        if reserved != 0 {
+            return Err(field("reserved", reserved as u64));
+        }
+        let method = match (method, groups) {
+            (0, 0) if block_width == 0 && border_guard == 0.0 => Method::Bfsm,
+            (1, 1 | 2) => Method::Efsm(BlockCoding {
+                block_width,
+                groups: if groups == 1 {
+                    GroupCount::One
+                } else {
+                    GroupCount::Two
+                },
+                border_guard,
+            }),
+            (0 | 1, _) => return Err(field("groups", groups as u64)),
+            _ => return Err(field("method", method as u64)),
+        };
+        let levels = PatternLevels {
+            offset: r.f32(),
+            amplitude: r.f32(),
+        };
+        let references = r.u8();
+        if references > 3 {
+            return Err(field("references", references as u64));
+        }
+        let references = References {
+            dark: references & 1 != 0,
+            white: references & 2 != 0,
+        };
+        let window = match r.u8() {
+            0 => Window::Rectangular,
+            1 => Window::Hann,
+            v => return Err(field("window", v as u64)),
+        };
+        let estimator = match r.u8() {
+            0 => PeakEstimator::Deconvolution,
+            1 => PeakEstimator::Gaussian,
+            2 => PeakEstimator::Parabolic,
+            3 => PeakEstimator::BlaisRioux4,
+            4 => PeakEstimator::BlaisRioux8,
+            v => return Err(field("estimator", v as u64)),
+        };
+        let decoding = DecodeSettings {
+            window,
+            estimator,
+            max_peaks: r.u8(),
+            noise_factor: r.f32(),
+            relative_floor: r.f32(),
+            min_amplitude_dn: r.f32(),
+            mask_noise_factor: r.f32(),
+            mask_relative_floor: r.f32(),
+            merge_tolerance: r.f32(),
+        };
+        let _version = r.u16();
+        let reserved = r.u16();
+        if reserved != 0 {
+            return Err(field("reserved", reserved as u64));
+        }
+        let plan = ScanPlan {
+            projector_columns,
+            band,
+            transform_size,
+            method,
+            levels,
+            references,
+            decoding,
+        };
+        plan.validate().map_err(WireError::Plan)?;
+        Ok(plan)
+    }
+
+    /// CRC-64/XZ of the canonical bytes: the identity every dependent file and message carries.
+    pub fn fingerprint(&self) -> u64 {
+        CRC64.checksum(&self.to_bytes())
+    }
+}

@@ -1,0 +1,274 @@
+//! Row dumps: the raw temporal rows of a scan, as a camera streams them instead of images.
+//!
+//! A dump is a 64-byte header followed by one fixed-length record per camera row, so it can be
+//! read and decoded one row at a time in constant memory. Little-endian throughout.
+//!
+//! Header:
+//!
+//! | offset | type | field |
+//! |---|---|---|
+//! | 0 | `[u8; 8]` | magic `FSMROWS\0` |
+//! | 8 | u16 | version, 1 |
+//! | 10 | u16 | header length, 64 |
+//! | 12 | u8 | sensor bit depth, 1–16 |
+//! | 13 | `[u8; 3]` | reserved, 0 |
+//! | 16 | u64 | plan fingerprint ([`ScanPlan::fingerprint`]) |
+//! | 24 | u32 | width `W` (pixels per row) |
+//! | 28 | u32 | height `H` (rows in the scan) |
+//! | 32 | u32 | frames `M` per row (the plan's whole sequence, references included) |
+//! | 36 | `[u8; 24]` | reserved, 0 |
+//! | 60 | u32 | CRC-32 of bytes 0–59 |
+//!
+//! Record (`8 + 2·W·M` bytes), in any row order:
+//!
+//! | offset | type | field |
+//! |---|---|---|
+//! | 0 | u32 | row index `y < H` |
+//! | 4 | `[u16; W·M]` | samples, sample-major: frame `i`, pixel `x` at `i·W + x` (the line decoder's input) |
+//! | 4 + 2·W·M | u32 | CRC-32 of the row index and the samples |
+
+use super::{begin_header, crc32, open_header, seal_header, Reader, WireError, Writer, HEADER_LEN};
+use crate::plan::ScanPlan;
+
+/// Magic bytes of a row dump.
+pub const MAGIC: [u8; 8] = *b"FSMROWS\0";
+/// Version this build writes and reads.
+pub const VERSION: u16 = 1;
+
+const WHAT: &str = "row dump";
+
+/// The header of a row dump.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RowDumpHeader {
+    /// Sensor bit depth, 1–16.
+    pub bit_depth: u8,
+    /// Fingerprint of the plan the rows were captured with.
+    pub plan_fingerprint: u64,
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows in the scan.
+    pub height: u32,
+    /// Frames per row.
+    pub frames: u32,
+}
+
+impl RowDumpHeader {
+    /// The header of a dump of `plan`'s frames.
+    pub fn for_plan(plan: &ScanPlan, width: u32, height: u32, bit_depth: u8) -> Self {
+        RowDumpHeader {
+            bit_depth,
+            plan_fingerprint: plan.fingerprint(),
+            width,
+            height,
+            frames: plan.sequence_len() as u32,
+        }
+    }
+
+    /// The 64 header bytes.
+    pub fn encode(&self) -> [u8; HEADER_LEN] {
+        let mut out = [0u8; HEADER_LEN];
+        let mut w = begin_header(&MAGIC, VERSION, &mut out);
+        w.u8(self.bit_depth);
+        w.put(&[0; 3]);
+        w.u64(self.plan_fingerprint);
+        w.u32(self.width);
+        w.u32(self.height);
+        w.u32(self.frames);
+        seal_header(&mut out);
+        out
+    }
+
+    /// Reads and checks a header (magic, version, CRC, field ranges).
+    pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
+        let mut r = open_header(WHAT, &MAGIC, VERSION, bytes)?;
+        let bit_depth = r.u8();
+        let _reserved: [u8; 3] = r.take();
+        let header = RowDumpHeader {
+            bit_depth,
+            plan_fingerprint: r.u64(),
+            width: r.u32(),
+            height: r.u32(),
+            frames: r.u32(),
+        };
+        let field = |field: &'static str, value: u64| WireError::Field {
+            what: WHAT,
+            field,
+            value,
+        };
+        if !(1..=16).contains(&header.bit_depth) {
+            return Err(field("bit_depth", header.bit_depth as u64));
+        }
+        if header.width == 0 {
+            return Err(field("width", 0));
+        }
+        if header.frames == 0 {
+            return Err(field("frames", 0));
+        }
+        if header.record_len().is_none() {
+            return Err(field("width", header.width as u64));
+        }
+        Ok(header)
+    }
+
+    /// Checks that the dump was made with `plan`.
+    pub fn check_plan(&self, plan: &ScanPlan) -> Result<(), WireError> {
+        let fingerprint = plan.fingerprint();
+        if self.plan_fingerprint != fingerprint {
+            return Err(WireError::Field {
+                what: WHAT,
+                field: "plan_fingerprint",
+                value: self.plan_fingerprint,
+            });
+        }
+        if self.frames as usize != plan.sequence_len() {
+            return Err(WireError::Field {
+                what: WHAT,
+                field: "frames",
+                value: self.frames as u64,
+            });
+        }
+        Ok(())
+    }
+
+    /// Samples per record, `W·M`.
+    pub fn samples_per_row(&self) -> usize {
+        self.width as usize * self.frames as usize
+    }
+
+    /// Bytes of one record, or `None` if it would not fit in memory addresses.
+    pub fn record_len(&self) -> Option<usize> {
+        (self.width as usize)
+            .checked_mul(self.frames as usize)?
+            .checked_mul(2)?
+            .checked_add(8)
+    }
+}
+
+/// One decoded record: its row index and its samples, still little-endian bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct RowRecord<'a> {
+    /// Camera row.
+    pub row: u32,
+    samples: &'a [u8],
+}
+
+impl RowRecord<'_> {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.samples.len() / 2
+    }
+
+    /// Whether the record holds no samples.
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// Sample `i` (`i·W + x` for frame `i`, pixel `x`).
+    pub fn sample(&self, i: usize) -> u16 {
+        u16::from_le_bytes([self.samples[2 * i], self.samples[2 * i + 1]])
+    }
+
+    /// Copies the samples into `out` (length [`RowRecord::len`]).
+    pub fn copy_to(&self, out: &mut [u16]) -> Result<(), WireError> {
+        if out.len() != self.len() {
+            return Err(WireError::BufferTooSmall {
+                what: WHAT,
+                needed: self.len(),
+                got: out.len(),
+            });
+        }
+        for (o, b) in out.iter_mut().zip(self.samples.chunks_exact(2)) {
+            *o = u16::from_le_bytes([b[0], b[1]]);
+        }
+        Ok(())
+    }
+}
+
+/// Writes the record of `row` with `samples` (`W·M` of them) into `out`; returns its length.
+pub fn encode_record(
+    header: &RowDumpHeader,
+    row: u32,
+    samples: &[u16],
+    out: &mut [u8],
+) -> Result<usize, WireError> {
+    let len = header.record_len().ok_or(WireError::Field {
+        what: WHAT,
+        field: "width",
+        value: header.width as u64,
+    })?;
+    if samples.len() != header.samples_per_row() {
+        return Err(WireError::BufferTooSmall {
+            what: WHAT,
+            needed: header.samples_per_row(),
+            got: samples.len(),
+        });
+    }
+    if row >= header.height {
+        return Err(WireError::RowOutOfRange {
+            what: WHAT,
+            row,
+            height: header.height,
+        });
+    }
+    let got = out.len();
+    let out = out.get_mut(..len).ok_or(WireError::BufferTooSmall {
+        what: WHAT,
+        needed: len,
+        got,
+    })?;
+    let mut w = Writer::new(&mut *out);
+    w.u32(row);
+    for &s in samples {
+        w.u16(s);
+    }
+    let crc = crc32(&out[..len - 4]);
+    out[len - 4..].copy_from_slice(&crc.to_le_bytes());
+    Ok(len)
+}
+
+/// Reads the record at the start of `bytes`, checking length, CRC and row range.
+pub fn decode_record<'a>(
+    header: &RowDumpHeader,
+    bytes: &'a [u8],
+) -> Result<RowRecord<'a>, WireError> {
+    let len = header.record_len().ok_or(WireError::Field {
+        what: WHAT,
+        field: "width",
+        value: header.width as u64,
+    })?;
+    if bytes.len() < len {
+        return Err(WireError::Truncated {
+            what: WHAT,
+            needed: len,
+            got: bytes.len(),
+        });
+    }
+    let row = Reader::new(bytes).u32();
+    let stored = u32::from_le_bytes([
+        bytes[len - 4],
+        bytes[len - 3],
+        bytes[len - 2],
+        bytes[len - 1],
+    ]);
+    let computed = crc32(&bytes[..len - 4]);
+    if stored != computed {
+        return Err(WireError::RecordCrc {
+            what: WHAT,
+            row,
+            stored,
+            computed,
+        });
+    }
+    if row >= header.height {
+        return Err(WireError::RowOutOfRange {
+            what: WHAT,
+            row,
+            height: header.height,
+        });
+    }
+    Ok(RowRecord {
+        row,
+        samples: &bytes[4..len - 4],
+    })
+}

@@ -1,0 +1,277 @@
+//! Byte formats: round trips, and every kind of damage is reported, never returned as data.
+
+mod support;
+
+use fsm_core::wire::candidates::{self, CandidateHeader};
+use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_core::wire::{WireError, HEADER_LEN};
+use fsm_core::{GroupCount, PixelCandidates, ScanPlan, Window};
+use proptest::prelude::*;
+use support::{Harness, Noise, Pixel};
+
+#[test]
+fn plans_round_trip_through_their_canonical_bytes() {
+    let mut hann = ScanPlan::paper_efsm(GroupCount::One);
+    hann.decoding.window = Window::Hann;
+    hann.decoding.estimator = fsm_core::PeakEstimator::BlaisRioux8;
+    for plan in [
+        ScanPlan::paper_bfsm(),
+        ScanPlan::paper_efsm(GroupCount::Two),
+        hann,
+    ] {
+        let bytes = plan.to_bytes();
+        assert_eq!(ScanPlan::from_bytes(&bytes).unwrap(), plan);
+        assert_eq!(
+            ScanPlan::from_bytes(&bytes).unwrap().fingerprint(),
+            plan.fingerprint()
+        );
+    }
+    // Different plans, different fingerprints; a changed threshold is a different plan.
+    let mut other = ScanPlan::paper_bfsm();
+    other.decoding.relative_floor = 0.03;
+    assert_ne!(other.fingerprint(), ScanPlan::paper_bfsm().fingerprint());
+    assert_ne!(
+        ScanPlan::paper_bfsm().fingerprint(),
+        ScanPlan::paper_efsm(GroupCount::Two).fingerprint()
+    );
+}
+
+#[test]
+fn invalid_plan_bytes_are_refused() {
+    let good = ScanPlan::paper_efsm(GroupCount::Two).to_bytes();
+    assert!(matches!(
+        ScanPlan::from_bytes(&good[..63]),
+        Err(WireError::Truncated {
+            needed: 64,
+            got: 63,
+            ..
+        })
+    ));
+    let mut b = good;
+    b[14] = 7; // method
+    assert!(matches!(
+        ScanPlan::from_bytes(&b),
+        Err(WireError::Field {
+            field: "method",
+            value: 7,
+            ..
+        })
+    ));
+    let mut b = good;
+    b[16] = 63; // odd block width: decodes, then fails validation, naming the rule
+    let e = ScanPlan::from_bytes(&b).unwrap_err();
+    assert!(e.to_string().contains("cB must be even"), "{e}");
+    let mut b = good;
+    b[60] = 9; // version
+    assert!(matches!(
+        ScanPlan::from_bytes(&b),
+        Err(WireError::Version {
+            version: 9,
+            supported: 1,
+            ..
+        })
+    ));
+}
+
+fn dump(plan: &ScanPlan, width: u32, height: u32) -> (Vec<u8>, Vec<Vec<u16>>) {
+    let header = RowDumpHeader::for_plan(plan, width, height, 12);
+    let mut bytes = header.encode().to_vec();
+    let mut rows = Vec::new();
+    let mut noise = Noise::new(1);
+    let mut record = vec![0u8; header.record_len().unwrap()];
+    for y in 0..height {
+        let pixels: Vec<Vec<u16>> = (0..width)
+            .map(|x| Pixel::column(50 + 37 * x + 5 * y, 900.0).samples(plan, 1.0, 12, &mut noise))
+            .collect();
+        let samples = support::row_frames(&pixels);
+        let n = row_dump::encode_record(&header, y, &samples, &mut record).unwrap();
+        bytes.extend_from_slice(&record[..n]);
+        rows.push(samples);
+    }
+    (bytes, rows)
+}
+
+#[test]
+fn row_dumps_round_trip_and_name_their_damage() {
+    let plan = ScanPlan::paper_efsm(GroupCount::Two);
+    let (bytes, rows) = dump(&plan, 3, 2);
+    let header = RowDumpHeader::decode(&bytes).unwrap();
+    header.check_plan(&plan).unwrap();
+    let len = header.record_len().unwrap();
+    assert_eq!(bytes.len(), HEADER_LEN + 2 * len);
+    for (y, expected) in rows.iter().enumerate() {
+        let record = row_dump::decode_record(&header, &bytes[HEADER_LEN + y * len..]).unwrap();
+        assert_eq!(record.row, y as u32);
+        let mut samples = vec![0u16; record.len()];
+        record.copy_to(&mut samples).unwrap();
+        assert_eq!(&samples, expected);
+    }
+
+    // The wrong plan.
+    let e = header.check_plan(&ScanPlan::paper_bfsm()).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            WireError::Field {
+                field: "plan_fingerprint",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    // Every single-byte flip of the header is caught.
+    for i in 0..HEADER_LEN {
+        let mut b = bytes.clone();
+        b[i] ^= 0x40;
+        assert!(
+            RowDumpHeader::decode(&b).is_err(),
+            "flip at header byte {i} went unnoticed"
+        );
+    }
+    // A flipped sample byte is a CRC error of that row; a flipped row index too.
+    for offset in [0usize, 1, 4, 100, len - 5, len - 1] {
+        let mut b = bytes.clone();
+        b[HEADER_LEN + len + offset] ^= 0x01;
+        let e = row_dump::decode_record(&header, &b[HEADER_LEN + len..]).unwrap_err();
+        assert!(
+            matches!(e, WireError::RecordCrc { .. }),
+            "offset {offset}: {e}"
+        );
+        assert!(e.to_string().contains("corrupted"), "{e}");
+    }
+    // Truncated anywhere in the last record.
+    for cut in [1usize, 7, len - 1] {
+        let e = row_dump::decode_record(&header, &bytes[HEADER_LEN + len..bytes.len() - cut])
+            .unwrap_err();
+        assert_eq!(
+            e,
+            WireError::Truncated {
+                what: "row dump",
+                needed: len,
+                got: len - cut
+            }
+        );
+    }
+    assert!(matches!(
+        RowDumpHeader::decode(&bytes[..40]),
+        Err(WireError::Truncated { .. })
+    ));
+}
+
+#[test]
+fn candidate_rows_round_trip_bit_for_bit() {
+    let plan = ScanPlan::paper_efsm(GroupCount::Two);
+    let mut h = Harness::new(plan);
+    let mut noise = Noise::new(3);
+    let pixels: Vec<Vec<u16>> = [
+        Pixel::column(100, 1200.0),
+        Pixel::column(100, 1200.0).plus(Pixel::column(300, 700.0)),
+        Pixel {
+            lights: vec![],
+            ambient: 30.0,
+        },
+        Pixel::column(5000, 0.0),
+    ]
+    .iter()
+    .map(|p| p.samples(&plan, 1.0, 12, &mut noise))
+    .collect();
+    let decoded = h.decode::<8>(&pixels, 12);
+    let header = CandidateHeader {
+        capacity: 8,
+        plan_fingerprint: plan.fingerprint(),
+        width: 4,
+        height: 10,
+    };
+    let hb = header.encode();
+    assert_eq!(CandidateHeader::decode(&hb).unwrap(), header);
+    let mut buf = vec![0u8; header.max_record_len().unwrap()];
+    let n = candidates::encode_record(&header, 7, &decoded, &mut buf).unwrap();
+    assert_eq!(n, candidates::record_len(&decoded));
+    let record = candidates::decode_record(&header, &buf[..n]).unwrap();
+    assert_eq!((record.row, record.len), (7, n));
+    let mut back = vec![PixelCandidates::<8>::new(); 4];
+    record.read_into(&header, &mut back).unwrap();
+    for (a, b) in back.iter().zip(&decoded) {
+        assert_eq!(a.flags, b.flags);
+        assert_eq!(a.noise_dn.to_bits(), b.noise_dn.to_bits());
+        assert_eq!(a.candidates.len(), b.candidates.len());
+        for (x, y) in a.candidates.iter().zip(&b.candidates) {
+            assert_eq!(x.column.to_bits(), y.column.to_bits());
+            assert_eq!(x.amplitude.to_bits(), y.amplitude.to_bits());
+            assert_eq!(
+                (x.groups, x.group, x.peak, x.block),
+                (y.groups, y.group, y.peak, y.block)
+            );
+        }
+    }
+    // Re-encoding what was read gives the same bytes.
+    let mut again = vec![0u8; n];
+    candidates::encode_record(&header, 7, &back, &mut again).unwrap();
+    assert_eq!(again, buf[..n]);
+    // A pixel with more candidates than the reader's capacity is an error, not a truncation.
+    let mut small = vec![PixelCandidates::<1>::new(); 4];
+    assert!(record.read_into(&header, &mut small).is_err());
+    // Damage anywhere in the record is detected.
+    for i in 0..n {
+        let mut b = buf[..n].to_vec();
+        b[i] ^= 0x10;
+        assert!(
+            candidates::decode_record(&header, &b).is_err(),
+            "flip at byte {i} went unnoticed"
+        );
+    }
+    for cut in 1..n {
+        assert!(
+            candidates::decode_record(&header, &buf[..n - cut]).is_err(),
+            "cut {cut}"
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    /// No byte string makes a reader panic.
+    #[test]
+    fn readers_never_panic_on_arbitrary_bytes(bytes in prop::collection::vec(any::<u8>(), 0..400), width in 1u32..4) {
+        let _ = ScanPlan::from_bytes(&bytes);
+        let _ = RowDumpHeader::decode(&bytes);
+        let _ = CandidateHeader::decode(&bytes);
+        let dump_header = RowDumpHeader { bit_depth: 12, plan_fingerprint: 1, width, height: 4, frames: 3 };
+        let _ = row_dump::decode_record(&dump_header, &bytes);
+        let cand_header = CandidateHeader { capacity: 4, plan_fingerprint: 1, width, height: 4 };
+        if let Ok(r) = candidates::decode_record(&cand_header, &bytes) {
+            let mut out = vec![PixelCandidates::<4>::new(); width as usize];
+            r.read_into(&cand_header, &mut out).unwrap();
+        }
+    }
+
+    /// Payloads behind a correct CRC reach the structural checks: they decode or are refused,
+    /// and whatever decodes re-encodes to the same bytes.
+    #[test]
+    fn crc_valid_candidate_records_are_checked_field_by_field(
+        payload in prop::collection::vec(any::<u8>(), 0..120),
+        width in 1u32..4,
+    ) {
+        let header = CandidateHeader { capacity: 4, plan_fingerprint: 1, width, height: 4 };
+        let mut bytes = 2u32.to_le_bytes().to_vec();
+        bytes.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&payload);
+        let crc = fsm_core::wire::crc32(&bytes);
+        bytes.extend_from_slice(&crc.to_le_bytes());
+        if let Ok(record) = candidates::decode_record(&header, &bytes) {
+            let mut out = vec![PixelCandidates::<4>::new(); width as usize];
+            record.read_into(&header, &mut out).unwrap();
+            let mut again = vec![0u8; bytes.len()];
+            let n = candidates::encode_record(&header, 2, &out, &mut again).unwrap();
+            prop_assert_eq!(&again[..n], &bytes[..]);
+        }
+    }
+
+    /// Valid headers decode to what was written.
+    #[test]
+    fn headers_round_trip(bit_depth in 1u8..=16, w in 1u32..5000, h in 1u32..5000, frames in 1u32..5000, fp in any::<u64>()) {
+        let header = RowDumpHeader { bit_depth, plan_fingerprint: fp, width: w, height: h, frames };
+        prop_assert_eq!(RowDumpHeader::decode(&header.encode()).unwrap(), header);
+    }
+}
