@@ -1,0 +1,1 @@
+//! Host ⇄ camera protocol.

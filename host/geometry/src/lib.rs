@@ -1,0 +1,1 @@
+//! Camera and projector geometry (SPEC §5).

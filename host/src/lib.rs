@@ -1,0 +1,1 @@
+//! Host side of the Frequency Shift Method scanner (see the README).

@@ -1,0 +1,1 @@
+//! Light-transport simulator (see the README).
