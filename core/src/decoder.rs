@@ -10,6 +10,7 @@ use core::fmt;
 
 use crate::block::{self, MaskLevels};
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+use crate::deconvolution::FitTable;
 use crate::kernel::{self, Kernel};
 use crate::plan::{Method, PlanError, ScanPlan, Window};
 use crate::search::{self, PeakList};
@@ -111,6 +112,7 @@ impl From<PlanError> for DecoderError {
 pub struct Decoder<'t> {
     plan: ScanPlan,
     kernel: Kernel<'t>,
+    fits: FitTable<'t>,
     window: &'t [f32],
     inverse_window_sum: f32,
     /// Sample noise RMS per unit of bin noise RMS: `Σh / sqrt(Σh²)`.
@@ -118,9 +120,9 @@ pub struct Decoder<'t> {
 }
 
 impl<'t> Decoder<'t> {
-    /// Floats of table storage a decoder of `plan` needs (kernel, window).
+    /// Floats of table storage a decoder of `plan` needs (kernel, fit operators, window).
     pub fn tables_len(plan: &ScanPlan) -> usize {
-        Kernel::storage_len(plan) + window_len(plan)
+        Kernel::storage_len(plan) + FitTable::storage_len(plan) + window_len(plan)
     }
 
     /// Floats of scratch [`Decoder::decode_row`] needs: one spectrum and one bin per power.
@@ -144,6 +146,12 @@ impl<'t> Decoder<'t> {
             needed,
             got: needed,
         })?;
+        let (fit_storage, rest) = rest.split_at_mut(FitTable::storage_len(plan));
+        let fits =
+            FitTable::build(plan, &kernel, fit_storage).ok_or(DecoderError::TablesTooShort {
+                needed,
+                got: needed,
+            })?;
         let m = plan.band.count as usize;
         let window = &mut rest[..window_len(plan)];
         for (i, h) in window.iter_mut().enumerate() {
@@ -161,6 +169,7 @@ impl<'t> Decoder<'t> {
         Ok(Decoder {
             plan: *plan,
             kernel,
+            fits,
             window,
             inverse_window_sum: (1.0 / sum) as f32,
             bin_to_sample_noise: (sum / libm::sqrt(sum_sq)) as f32,
@@ -311,7 +320,7 @@ impl<'t> Decoder<'t> {
         let n = self.plan.transform_size as usize;
         let (spectrum, rest) = scratch.split_at_mut(n + 2);
         let mut residual = Spectrum::new(spectrum, n);
-        search::find_peaks(&self.plan, &self.kernel, &mut residual, rest)
+        search::find_peaks(&self.plan, &self.kernel, &self.fits, &mut residual, rest)
     }
 
     fn decode_checked<const K: usize>(

@@ -17,6 +17,7 @@
 
 use crate::kernel::{ColumnLookup, ColumnTerms, Kernel, Model};
 use crate::math::Complex;
+use crate::plan::ScanPlan;
 use crate::spectrum::Spectrum;
 
 /// Columns on each side of the centre column that carry a weight (±3 measured better than the
@@ -90,18 +91,27 @@ pub(crate) struct FitDomain {
     pub bins: usize,
 }
 
+impl FitDomain {
+    pub fn of(plan: &ScanPlan) -> Self {
+        FitDomain {
+            span: plan.span_columns() as i32,
+            bin_width: plan.bin_width(),
+            bins: plan.bin_count(),
+        }
+    }
+}
+
 impl Fit {
-    /// Least-squares weights of columns `centre−3..=centre+3` (inside the span) from `spectrum`.
+    /// Non-negative least-squares weights of columns `centre−3..=centre+3` (inside the span)
+    /// from `spectrum`, with the centre's precomputed operator.
     pub fn solve(
         kernel: &Kernel<'_>,
+        table: &FitTable<'_>,
         spectrum: &Spectrum<'_>,
-        domain: &FitDomain,
         centre: i32,
     ) -> Option<Fit> {
-        let first = (centre - HALF_WIDTH).max(0);
-        let last = (centre + HALF_WIDTH).min(domain.span - 1);
         let mut w = [0.0f64; MAX_JOINT_COLUMNS];
-        let len = solve_columns(kernel, spectrum, domain, first, last, &mut w)?;
+        let (first, len) = table.solve(spectrum, centre, &mut w)?;
         Fit::from_weights(kernel, first, &w[..len])
     }
 
@@ -185,20 +195,70 @@ fn solve_columns(
         *t = Some(kernel.column_terms(first + i as i32));
     }
 
+    let (lo, hi) = bin_range(domain, first, last)?;
+    solve_normal(kernel, spectrum, &terms[..len], lo, hi, out)
+}
+
+/// The bins a fit of columns `first..=last` reads: those within `RADIUS_COLUMNS` of them (more
+/// when bins are coarse), at most `MAX_BINS`, centred on the columns.
+fn bin_range(domain: &FitDomain, first: i32, last: i32) -> Option<(usize, usize)> {
     let radius = RADIUS_COLUMNS.max(MIN_BINS_PER_SIDE * domain.bin_width);
     let to_bin = |c: f32| c / domain.bin_width;
     let lo = crate::math::floor(to_bin(first as f32 - radius)).max(0.0) as usize;
     let hi_f = crate::math::floor(to_bin(last as f32 + radius)) + 1.0;
-    let mut hi = (hi_f.max(0.0) as usize).min(domain.bins);
+    let hi = (hi_f.max(0.0) as usize).min(domain.bins);
     if hi <= lo {
         return None;
     }
     if hi - lo > MAX_BINS {
         let centre = (lo + hi) / 2;
-        hi = centre + MAX_BINS / 2;
-        return solve_normal(kernel, spectrum, &terms[..len], hi - MAX_BINS, hi, out);
+        return Some((centre + MAX_BINS / 2 - MAX_BINS, centre + MAX_BINS / 2));
     }
-    solve_normal(kernel, spectrum, &terms[..len], lo, hi, out)
+    Some((lo, hi))
+}
+
+/// Ridged Gram matrix `Re(BᴴB) + λI` (full, symmetric) of the columns' responses over bins
+/// `lo..hi`, and `y = Re(Bᴴx)` when a spectrum is given.
+fn normal_equations(
+    kernel: &Kernel<'_>,
+    lookups: &[ColumnLookup],
+    lo: usize,
+    hi: usize,
+    spectrum: Option<&Spectrum<'_>>,
+    a: &mut [[f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS],
+    y: &mut [f64; MAX_JOINT_COLUMNS],
+) -> bool {
+    let len = lookups.len();
+    *a = [[0.0; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
+    y.fill(0.0);
+    let mut basis = [Complex::default(); MAX_JOINT_COLUMNS];
+    for k in lo..hi {
+        for (b, l) in basis.iter_mut().zip(lookups.iter()) {
+            *b = kernel.response_at(l, k);
+        }
+        if let Some(spectrum) = spectrum {
+            let x = spectrum.bin(k);
+            for i in 0..len {
+                y[i] += basis[i].dot(x) as f64;
+            }
+        }
+        for i in 0..len {
+            for j in 0..=i {
+                a[i][j] += basis[i].dot(basis[j]) as f64;
+            }
+        }
+    }
+    let mean_diagonal = (0..len).map(|i| a[i][i]).sum::<f64>() / len as f64;
+    if mean_diagonal.is_nan() || mean_diagonal <= 0.0 {
+        return false;
+    }
+    for i in 0..len {
+        a[i][i] += RIDGE * mean_diagonal;
+        for j in 0..i {
+            a[j][i] = a[i][j];
+        }
+    }
+    true
 }
 
 fn solve_normal(
@@ -215,34 +275,194 @@ fn solve_normal(
         *l = kernel.lookup(t.as_ref()?);
     }
     let mut a = [[0.0f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
-    let y = out;
-    y.fill(0.0);
-    let mut basis = [Complex::default(); MAX_JOINT_COLUMNS];
-    for k in lo..hi {
-        for (b, l) in basis.iter_mut().zip(lookups.iter()).take(len) {
-            *b = kernel.response_at(l, k);
-        }
-        let x = spectrum.bin(k);
-        for i in 0..len {
-            y[i] += basis[i].dot(x) as f64;
-            for j in 0..=i {
-                a[i][j] += basis[i].dot(basis[j]) as f64;
-            }
-        }
-    }
-    let mean_diagonal = (0..len).map(|i| a[i][i]).sum::<f64>() / len as f64;
-    if mean_diagonal.is_nan() || mean_diagonal <= 0.0 {
+    if !normal_equations(kernel, &lookups[..len], lo, hi, Some(spectrum), &mut a, out) {
         return None;
     }
-    for (i, row) in a.iter_mut().enumerate().take(len) {
-        row[i] += RIDGE * mean_diagonal;
+    // Light that is non-negative everywhere (the usual case) needs one unconstrained solve.
+    let all = [true; MAX_JOINT_COLUMNS];
+    let mut unconstrained = [0.0f64; MAX_JOINT_COLUMNS];
+    if solve_free(&a, out, &all, len, &mut unconstrained)
+        && unconstrained[..len].iter().all(|&v| v >= 0.0)
+    {
+        *out = unconstrained;
+        return Some(len);
     }
-    for i in 0..len {
-        for j in 0..i {
-            a[j][i] = a[i][j];
+    let mut hint = [false; MAX_JOINT_COLUMNS];
+    for (h, &v) in hint.iter_mut().zip(&unconstrained[..len]) {
+        *h = v > 0.0;
+    }
+    non_negative_solve(&a, out, len, &hint).then_some(len)
+}
+
+/// Per-centre least-squares operators: for a peak centred on column `c` the fitted columns and
+/// the bins read are fixed, so the unconstrained solution is one precomputed product
+/// `w = Re(P x)` with `P = (Re BᴴB + λI)⁻¹ Bᴴ` (SPEC §2). When a weight comes out negative the
+/// non-negative solution is computed from the stored Gram matrix and `y = A w`.
+///
+/// Layout of the entry of centre `c` (`stride` floats): first column, number of columns, first
+/// bin, number of bins `n`; the Gram matrix `A` (7×7, row-major); then per column `i` the `n`
+/// pairs `(Re P_ik, −Im P_ik)`, padded to the plan's largest `n`.
+#[derive(Clone, Copy, Debug)]
+pub struct FitTable<'t> {
+    data: &'t [f32],
+    stride: usize,
+    max_bins: usize,
+    span: usize,
+}
+
+const ENTRY_HEADER: usize = 4;
+const GRAM_LEN: usize = MAX_COLUMNS * MAX_COLUMNS;
+
+/// Fitted columns and bins of the fit centred on column `centre`.
+fn centre_window(domain: &FitDomain, centre: i32) -> Option<(i32, i32, usize, usize)> {
+    let first = (centre - HALF_WIDTH).max(0);
+    let last = (centre + HALF_WIDTH).min(domain.span - 1);
+    if last < first {
+        return None;
+    }
+    let (lo, hi) = bin_range(domain, first, last)?;
+    Some((first, last, lo, hi))
+}
+
+impl<'t> FitTable<'t> {
+    fn max_bins(domain: &FitDomain) -> usize {
+        (0..domain.span)
+            .filter_map(|c| centre_window(domain, c))
+            .map(|(_, _, lo, hi)| hi - lo)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Floats of storage the table of `plan` needs.
+    pub fn storage_len(plan: &ScanPlan) -> usize {
+        let domain = FitDomain::of(plan);
+        domain.span as usize * (ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * Self::max_bins(&domain))
+    }
+
+    /// Computes the operators of every centre column of `plan` into `storage`.
+    pub fn build(plan: &ScanPlan, kernel: &Kernel<'_>, storage: &'t mut [f32]) -> Option<Self> {
+        let domain = FitDomain::of(plan);
+        let max_bins = Self::max_bins(&domain);
+        let stride = ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * max_bins;
+        let span = domain.span as usize;
+        let data = storage.get_mut(..span * stride)?;
+        for (c, entry) in data.chunks_exact_mut(stride).enumerate() {
+            entry.fill(0.0);
+            let Some((first, last, lo, hi)) = centre_window(&domain, c as i32) else {
+                continue;
+            };
+            let len = (last - first + 1) as usize;
+            let mut lookups = [ColumnLookup::default(); MAX_JOINT_COLUMNS];
+            for (i, l) in lookups.iter_mut().take(len).enumerate() {
+                *l = kernel.lookup(&kernel.column_terms(first + i as i32));
+            }
+            let mut a = [[0.0f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
+            let mut unused = [0.0f64; MAX_JOINT_COLUMNS];
+            if !normal_equations(kernel, &lookups[..len], lo, hi, None, &mut a, &mut unused) {
+                continue;
+            }
+            // A⁻¹ column by column.
+            let mut inverse = [[0.0f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
+            let all = [true; MAX_JOINT_COLUMNS];
+            let mut ok = true;
+            for j in 0..len {
+                let mut e = [0.0f64; MAX_JOINT_COLUMNS];
+                e[j] = 1.0;
+                let mut col = [0.0f64; MAX_JOINT_COLUMNS];
+                ok &= solve_free(&a, &e, &all, len, &mut col);
+                for i in 0..len {
+                    inverse[i][j] = col[i];
+                }
+            }
+            if !ok {
+                continue;
+            }
+            entry[0] = first as f32;
+            entry[1] = len as f32;
+            entry[2] = lo as f32;
+            entry[3] = (hi - lo) as f32;
+            for i in 0..len {
+                for j in 0..len {
+                    entry[ENTRY_HEADER + i * MAX_COLUMNS + j] = a[i][j] as f32;
+                }
+            }
+            let operator = &mut entry[ENTRY_HEADER + GRAM_LEN..];
+            for k in lo..hi {
+                let mut basis = [Complex::default(); MAX_JOINT_COLUMNS];
+                for (b, l) in basis.iter_mut().zip(lookups.iter()).take(len) {
+                    *b = kernel.response_at(l, k);
+                }
+                for i in 0..len {
+                    // P_ik = Σ_j A⁻¹_ij conj(b_j(k)); stored as (Re P, −Im P) so that
+                    // w_i = Σ_k Re(P_ik x_k) is a real dot product with (Re x, Im x).
+                    let (mut re, mut im) = (0.0f64, 0.0f64);
+                    for j in 0..len {
+                        re += inverse[i][j] * basis[j].re as f64;
+                        im += inverse[i][j] * basis[j].im as f64;
+                    }
+                    let at = 2 * (i * max_bins + (k - lo));
+                    operator[at] = re as f32;
+                    operator[at + 1] = im as f32;
+                }
+            }
         }
+        Some(FitTable {
+            data,
+            stride,
+            max_bins,
+            span,
+        })
     }
-    non_negative_solve(&a, y, len).then_some(len)
+
+    /// Non-negative weights of the fit centred on `centre`; returns the first column and the
+    /// number of weights written to `out`.
+    fn solve(
+        &self,
+        spectrum: &Spectrum<'_>,
+        centre: i32,
+        out: &mut [f64; MAX_JOINT_COLUMNS],
+    ) -> Option<(i32, usize)> {
+        let c = usize::try_from(centre).ok().filter(|&c| c < self.span)?;
+        let entry = &self.data[c * self.stride..(c + 1) * self.stride];
+        let (first, len, lo, bins) = (
+            entry[0] as i32,
+            entry[1] as usize,
+            entry[2] as usize,
+            entry[3] as usize,
+        );
+        if len == 0 || lo + bins > spectrum.len() {
+            return None;
+        }
+        let x = &spectrum.as_slice()[2 * lo..2 * (lo + bins)];
+        let operator = &entry[ENTRY_HEADER + GRAM_LEN..];
+        let mut negative = false;
+        for i in 0..len {
+            let row = &operator[2 * i * self.max_bins..2 * (i * self.max_bins + bins)];
+            let w: f32 = row.iter().zip(x).map(|(p, x)| p * x).sum();
+            out[i] = w as f64;
+            negative |= w < 0.0;
+        }
+        if !negative {
+            return Some((first, len));
+        }
+        let mut a = [[0.0f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
+        for i in 0..len {
+            for j in 0..len {
+                a[i][j] = entry[ENTRY_HEADER + i * MAX_COLUMNS + j] as f64;
+            }
+        }
+        let mut y = [0.0f64; MAX_JOINT_COLUMNS];
+        let mut hint = [false; MAX_JOINT_COLUMNS];
+        for i in 0..len {
+            y[i] = (0..len).map(|j| a[i][j] * out[j]).sum();
+            hint[i] = out[i] > 0.0;
+        }
+        if !non_negative_solve(&a, &mut y, len, &hint) {
+            return None;
+        }
+        *out = y;
+        Some((first, len))
+    }
 }
 
 /// Non-negative least squares on the normal equations, `min ½wᵀAw − yᵀw` subject to `w ≥ 0`
@@ -254,11 +474,25 @@ fn non_negative_solve(
     a: &[[f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS],
     y: &mut [f64; MAX_JOINT_COLUMNS],
     n: usize,
+    hint: &[bool; MAX_JOINT_COLUMNS],
 ) -> bool {
-    let mut w = [0.0f64; MAX_JOINT_COLUMNS];
-    let mut free = [false; MAX_JOINT_COLUMNS];
     let scale = (0..n).map(|i| y[i].abs()).fold(0.0, f64::max);
     let tolerance = 1e-9 * scale.max(f64::MIN_POSITIVE);
+    // Usually the weights the unconstrained solution left positive are the free set: solve on
+    // them and accept if the result satisfies the optimality (KKT) conditions.
+    let mut guess = [0.0f64; MAX_JOINT_COLUMNS];
+    if solve_free(a, y, hint, n, &mut guess) {
+        let feasible = (0..n).all(|j| !hint[j] || guess[j] > 0.0);
+        let optimal = (0..n).all(|j| {
+            hint[j] || y[j] - (0..n).map(|k| a[j][k] * guess[k]).sum::<f64>() <= tolerance
+        });
+        if feasible && optimal {
+            *y = guess;
+            return true;
+        }
+    }
+    let mut w = [0.0f64; MAX_JOINT_COLUMNS];
+    let mut free = [false; MAX_JOINT_COLUMNS];
     for _ in 0..3 * n {
         // Gradient of the objective's negative: y − A w.
         let mut best = None;

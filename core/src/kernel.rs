@@ -16,9 +16,10 @@
 //! complex entries, computed in `f64` from closed forms and stored as `f32`.
 //!
 //! The table is stored by residue class so that a column's contribution to consecutive bins is
-//! a contiguous run: entry `r·N + i` holds `G` at offset `t = ((−i) mod N)·q + r` (in `1/q` bin),
-//! and bin `k` of a term at offset `t₀` reads entry `r·N + ((k − ⌊t₀/q⌋) mod N)`. Removing a
-//! peak from the spectrum is then a handful of complex AXPYs.
+//! a contiguous run: entry `2rN + i` holds `G` at offset `t = ((−i) mod N)·q + r` (in `1/q` bin),
+//! each row stored twice so runs never wrap, and bin `k` of a term at offset `t₀` reads entry
+//! `2rN + ((−⌊t₀/q⌋) mod N) + k`. Removing a peak from the spectrum is then a handful of
+//! complex AXPYs over contiguous runs.
 
 use crate::deconvolution::MAX_COLUMNS;
 use crate::math::Complex;
@@ -28,8 +29,10 @@ use crate::spectrum::Spectrum;
 /// Tabulated `G(u)` of a plan, borrowed from caller storage.
 #[derive(Clone, Copy, Debug)]
 pub struct Kernel<'t> {
-    /// Interleaved `(re, im)`; entry `r·N + i` is `G(t/q)` with `t = ((−i) mod N)·q + r`.
+    /// Interleaved `(re, im)`; entry `2rN + i` is `G(t/q)` with `t = ((−i) mod N)·q + r`.
     table: &'t [f32],
+    /// `(Re φ_j, Im φ_j, μ_j)` of every column `j` of the span.
+    columns: &'t [f32],
     /// `N·q`.
     len: i64,
     /// `N`.
@@ -77,9 +80,10 @@ pub struct Model {
 }
 
 impl<'t> Kernel<'t> {
-    /// `f32` words of storage the kernel of `plan` needs.
+    /// `f32` words of storage the kernel of `plan` needs: the `G` table and, per column of the
+    /// span, `φ_j` and `μ_j` (so that no trigonometry is left on the decoding path).
     pub fn storage_len(plan: &ScanPlan) -> usize {
-        2 * plan.kernel_table_len()
+        4 * plan.kernel_table_len() + 3 * plan.span_columns() as usize
     }
 
     /// Fills `storage` with the kernel of `plan` (which must be valid) and borrows it.
@@ -87,13 +91,17 @@ impl<'t> Kernel<'t> {
     /// Returns `None` if `storage` is shorter than [`Kernel::storage_len`].
     pub fn build(plan: &ScanPlan, storage: &'t mut [f32]) -> Option<Self> {
         let len = plan.kernel_table_len();
-        let storage = storage.get_mut(..2 * len)?;
+        let span = plan.span_columns() as usize;
+        let (storage, column_storage) =
+            storage.get_mut(..4 * len + 3 * span)?.split_at_mut(4 * len);
         let n = plan.transform_size as i64;
         let per_bin = len as i64 / n;
         let m = plan.band.count as usize;
         let window_sum = window_sum(plan.decoding.window, m);
         for (e, entry) in storage.chunks_exact_mut(2).enumerate() {
-            let (r, i) = (e as i64 / n, e as i64 % n);
+            // Each residue row is stored twice in a row (length 2N), so that a run of N/2 + 1
+            // bins starting anywhere in the first copy never wraps.
+            let (r, i) = (e as i64 / (2 * n), e as i64 % n);
             let t = (-i).rem_euclid(n) * per_bin + r;
             // u = t/q bins, θ = 2πu/N.
             let g = match plan.decoding.window {
@@ -113,8 +121,9 @@ impl<'t> Kernel<'t> {
             entry[0] = (g.0 / window_sum) as f32;
             entry[1] = (g.1 / window_sum) as f32;
         }
-        Some(Kernel {
+        let mut kernel = Kernel {
             table: storage,
+            columns: &[],
             len: len as i64,
             transform_size: n,
             per_bin,
@@ -122,7 +131,13 @@ impl<'t> Kernel<'t> {
             period: plan.band.period_columns as i64,
             first_harmonic: plan.band.first_harmonic as i64,
             count: m as i64,
-        })
+        };
+        for (j, entry) in column_storage.chunks_exact_mut(3).enumerate() {
+            let t = kernel.compute_column_terms(j as i64);
+            entry.copy_from_slice(&[t.phase.re, t.phase.im, t.mean]);
+        }
+        kernel.columns = column_storage;
+        Some(kernel)
     }
 
     /// `G(t/q)` for any table offset `t` (reduced modulo `N·q`).
@@ -132,13 +147,13 @@ impl<'t> Kernel<'t> {
         self.entry(base + start)
     }
 
-    /// Table entry of bin 0 of a term at offset `t`: `(r·N, (−⌊t/q⌋) mod N)`.
+    /// Table entry of bin 0 of a term at offset `t`: `(2rN, (−⌊t/q⌋) mod N)`.
     #[inline]
     fn locate(&self, t: i64) -> (usize, usize) {
         let t = t.rem_euclid(self.len);
         let (r, i) = (t % self.per_bin, t / self.per_bin);
         (
-            (r * self.transform_size) as usize,
+            (2 * r * self.transform_size) as usize,
             (-i).rem_euclid(self.transform_size) as usize,
         )
     }
@@ -148,9 +163,24 @@ impl<'t> Kernel<'t> {
         Complex::new(self.table[2 * e], self.table[2 * e + 1])
     }
 
-    /// `φ_j`, `μ_j` and the table offset of column `j` (in the plan's span domain).
+    /// `φ_j`, `μ_j` and the table offset of column `j` (in the plan's span domain), from the
+    /// column table (computed on the spot for columns outside the span).
     pub fn column_terms(&self, column: i32) -> ColumnTerms {
         let j = column as i64;
+        match usize::try_from(column)
+            .ok()
+            .and_then(|i| self.columns.get(3 * i..3 * i + 3))
+        {
+            Some(c) => ColumnTerms {
+                offset: j * self.per_column,
+                phase: Complex::new(c[0], c[1]),
+                mean: c[2],
+            },
+            None => self.compute_column_terms(j),
+        }
+    }
+
+    fn compute_column_terms(&self, j: i64) -> ColumnTerms {
         let l = self.period;
         // φ_j = e^{iπ r/L}, r = 2n₁j mod 2L.
         let phase = turns_to_unit(
@@ -197,8 +227,7 @@ impl<'t> Kernel<'t> {
     /// `b_j(k)` from a [`ColumnLookup`]: three table reads, no division.
     #[inline]
     pub fn response_at(&self, lookup: &ColumnLookup, bin: usize) -> Complex {
-        let mask = self.transform_size as usize - 1;
-        let read = |(base, start): (usize, usize)| self.entry(base + ((start + bin) & mask));
+        let read = |(base, start): (usize, usize)| self.entry(base + start + bin);
         let (direct, mirror, zero) = (read(lookup.direct), read(lookup.mirror), read(lookup.zero));
         let p = lookup.phase;
         Complex::new(
@@ -219,6 +248,10 @@ impl<'t> Kernel<'t> {
             m.len += 1;
         };
         for (t, w) in columns.take(MAX_COLUMNS) {
+            if w == 0.0 {
+                // Non-negative fits leave columns at exactly zero: nothing to add.
+                continue;
+            }
             let h = 0.5 * w;
             push(
                 &mut m,
@@ -238,49 +271,31 @@ impl<'t> Kernel<'t> {
 
     /// The value of `model` at bin `k`.
     pub fn model_at(&self, model: &Model, bin: usize) -> Complex {
-        let mask = self.transform_size as usize - 1;
         let mut sum = Complex::default();
         for i in 0..model.len {
             let c = model.coefficient[i];
-            let g = self.entry(model.base[i] + ((model.start[i] + bin) & mask));
+            let g = self.entry(model.base[i] + model.start[i] + bin);
             sum.re += c.re * g.re - c.im * g.im;
             sum.im += c.re * g.im + c.im * g.re;
         }
         sum
     }
 
-    /// `spectrum_k += sign·model(k)` for every bin: per term, one or two contiguous complex
-    /// AXPYs over the table.
+    /// `spectrum_k += sign·model(k)` for every bin: per term, one contiguous complex AXPY over
+    /// the table.
     pub fn add_model(&self, model: &Model, spectrum: &mut Spectrum<'_>, sign: f32) {
-        let n = self.transform_size as usize;
         let bins = spectrum.len();
         let data = spectrum.as_mut_slice();
         for i in 0..model.len {
             let c = model.coefficient[i];
             let c = Complex::new(sign * c.re, sign * c.im);
-            let row = &self.table[2 * model.base[i]..2 * (model.base[i] + n)];
-            let start = model.start[i];
-            let first = bins.min(n - start);
-            axpy(
-                &mut data[..2 * first],
-                &row[2 * start..2 * (start + first)],
-                c,
-            );
-            axpy(
-                &mut data[2 * first..2 * bins],
-                &row[..2 * (bins - first)],
-                c,
-            );
+            let first = model.base[i] + model.start[i];
+            let run = &self.table[2 * first..2 * (first + bins)];
+            for (y, g) in data.chunks_exact_mut(2).zip(run.chunks_exact(2)) {
+                y[0] += c.re * g[0] - c.im * g[1];
+                y[1] += c.re * g[1] + c.im * g[0];
+            }
         }
-    }
-}
-
-/// `y += c·x` over interleaved complex slices of equal length.
-#[inline]
-fn axpy(y: &mut [f32], x: &[f32], c: Complex) {
-    for (y, x) in y.chunks_exact_mut(2).zip(x.chunks_exact(2)) {
-        y[0] += c.re * x[0] - c.im * x[1];
-        y[1] += c.re * x[1] + c.im * x[0];
     }
 }
 

@@ -21,7 +21,7 @@
 
 use heapless::Vec;
 
-use crate::deconvolution::{Fit, FitDomain, HALF_WIDTH};
+use crate::deconvolution::{Fit, FitDomain, FitTable, HALF_WIDTH};
 use crate::kernel::Kernel;
 use crate::math::{round, sqrt};
 use crate::peak::{neighbourhood, offset, Peak};
@@ -47,19 +47,18 @@ pub struct PeakList {
 pub(crate) fn find_peaks(
     plan: &ScanPlan,
     kernel: &Kernel<'_>,
+    table: &FitTable<'_>,
     residual: &mut Spectrum<'_>,
     scratch: &mut [f32],
 ) -> PeakList {
     let settings = plan.decoding;
-    let domain = FitDomain {
-        span: plan.span_columns() as i32,
-        bin_width: plan.bin_width(),
-        bins: residual.len(),
-    };
+    let domain = FitDomain::of(plan);
     let mut fits: Vec<Fit, MAX_PEAKS> = Vec::new();
     let mut strongest = 0.0f32;
     let mut attempts = 0;
-    let (mut peak_bin, _) = scan(residual, scratch);
+    let mut peak_bin = strongest_bin(residual);
+    // Bin noise of the residual as it stands, when a scan has measured it.
+    let mut noise = None;
     while fits.len() < settings.max_peaks as usize && attempts < 2 * MAX_PEAKS {
         attempts += 1;
         let floor =
@@ -68,7 +67,7 @@ pub(crate) fn find_peaks(
             break;
         }
         let centre = round(peak_bin as f32 * domain.bin_width) as i32;
-        let Some(fit) = fit_centred(kernel, residual, &domain, centre) else {
+        let Some(fit) = fit_centred(kernel, table, residual, centre) else {
             break;
         };
         let amplitude = fit.weights.amplitude();
@@ -80,8 +79,9 @@ pub(crate) fn find_peaks(
         // Judge the peak against the noise left once it is removed: before that, a broad peak
         // of a short sequence fills most bins and the median would measure the peak itself.
         fit.apply(kernel, residual, -1.0);
-        let (next_bin, noise) = scan(residual, scratch);
-        if fit.model(kernel, peak_bin).norm() <= settings.noise_factor * noise {
+        let (next_bin, next_noise) = scan(residual, scratch);
+        if fit.model(kernel, peak_bin).norm() <= settings.noise_factor * next_noise {
+            // Back to the residual the previous scan measured.
             fit.apply(kernel, residual, 1.0);
             break;
         }
@@ -105,21 +105,28 @@ pub(crate) fn find_peaks(
                     .weights
                     .centroid()
                     .map_or(earlier.weights.first + HALF_WIDTH, |c| round(c) as i32);
-                fits[i] = fit_centred(kernel, residual, &domain, centre).unwrap_or(earlier);
+                fits[i] = fit_centred(kernel, table, residual, centre).unwrap_or(earlier);
                 fits[i].apply(kernel, residual, -1.0);
-                (peak_bin, _) = scan(residual, scratch);
+                let (bin, n) = scan(residual, scratch);
+                (peak_bin, noise) = (bin, Some(n));
             }
             None => {
                 strongest = strongest.max(amplitude);
                 // Capacity was checked by the loop condition.
                 let _ = fits.push(fit);
-                peak_bin = next_bin;
+                (peak_bin, noise) = (next_bin, Some(next_noise));
             }
         }
     }
 
-    refine(kernel, residual, &domain, &mut fits);
-    let (_, bin_noise) = scan(residual, scratch);
+    if fits.len() > 1 {
+        refine(kernel, table, residual, &domain, &mut fits);
+        noise = None;
+    }
+    let bin_noise = match noise {
+        Some(n) => n,
+        None => scan(residual, scratch).1,
+    };
 
     let mut list = PeakList {
         peaks: Vec::new(),
@@ -136,18 +143,18 @@ pub(crate) fn find_peaks(
 /// Fits at `centre`, then once or twice more at the rounded centroid if it moved away.
 fn fit_centred(
     kernel: &Kernel<'_>,
+    table: &FitTable<'_>,
     residual: &Spectrum<'_>,
-    domain: &FitDomain,
     mut centre: i32,
 ) -> Option<Fit> {
-    let mut fit = Fit::solve(kernel, residual, domain, centre)?;
+    let mut fit = Fit::solve(kernel, table, residual, centre)?;
     for _ in 0..2 {
         let centroid = fit.weights.centroid()?;
         if (centroid - centre as f32).abs() <= RECENTRE_DISTANCE {
             break;
         }
         centre = round(centroid) as i32;
-        fit = Fit::solve(kernel, residual, domain, centre)?;
+        fit = Fit::solve(kernel, table, residual, centre)?;
     }
     Some(fit)
 }
@@ -159,6 +166,7 @@ fn fit_centred(
 /// restored.
 fn refine(
     kernel: &Kernel<'_>,
+    table: &FitTable<'_>,
     residual: &mut Spectrum<'_>,
     domain: &FitDomain,
     fits: &mut Vec<Fit, MAX_PEAKS>,
@@ -181,7 +189,7 @@ fn refine(
             let Some((j, cj)) = nearest else { continue };
             if (cj - ci).abs() >= overlap {
                 fits[i].apply(kernel, residual, 1.0);
-                if let Some(refit) = fit_centred(kernel, residual, domain, round(ci) as i32) {
+                if let Some(refit) = fit_centred(kernel, table, residual, round(ci) as i32) {
                     fits[i] = refit;
                 }
                 fits[i].apply(kernel, residual, -1.0);
@@ -250,13 +258,27 @@ fn describe(
     })
 }
 
+/// Strongest bin of the residual.
+fn strongest_bin(residual: &Spectrum<'_>) -> usize {
+    let mut best = 0;
+    let mut best_power = -1.0f32;
+    for k in 0..residual.len() {
+        let p = residual.bin(k).norm_sqr();
+        if p > best_power {
+            best_power = p;
+            best = k;
+        }
+    }
+    best
+}
+
 /// Strongest bin of the residual and the bin noise RMS, `sqrt(median |X_k|² / ln 2)`.
 ///
-/// The median is taken over every `stride`-th bin, at most about 256 of them: zero-padded bins
+/// The median is taken over every `stride`-th bin, at most about 128 of them: zero-padded bins
 /// are correlated anyway, and a threshold needs no more precision than that.
 fn scan(residual: &Spectrum<'_>, scratch: &mut [f32]) -> (usize, f32) {
     let bins = residual.len();
-    let stride = bins.div_ceil(256);
+    let stride = bins.div_ceil(128);
     let mut best = 0;
     let mut best_power = -1.0f32;
     let mut sampled = 0;

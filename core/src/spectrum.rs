@@ -51,6 +51,12 @@ impl<'s> Spectrum<'s> {
 
     /// The interleaved `(re, im)` pairs.
     #[inline]
+    pub(crate) fn as_slice(&self) -> &[f32] {
+        self.data
+    }
+
+    /// The interleaved `(re, im)` pairs, mutable.
+    #[inline]
     pub(crate) fn as_mut_slice(&mut self) -> &mut [f32] {
         self.data
     }

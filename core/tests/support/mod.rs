@@ -138,20 +138,22 @@ pub fn row_frames(pixels: &[Vec<u16>]) -> Vec<u16> {
     out
 }
 
-/// A decoder with its own tables and scratch.
+/// A decoder with its own tables (built once, kept for the test's lifetime) and scratch.
 pub struct Harness {
     pub plan: ScanPlan,
-    tables: Vec<f32>,
+    decoder: Decoder<'static>,
     scratch: Vec<f32>,
 }
 
 impl Harness {
     pub fn new(plan: ScanPlan) -> Self {
-        let tables = vec![0.0; Decoder::tables_len(&plan)];
+        let tables: &'static mut [f32] =
+            Box::leak(vec![0.0; Decoder::tables_len(&plan)].into_boxed_slice());
+        let decoder = Decoder::new(&plan, tables).expect("valid plan");
         let scratch = vec![0.0; Decoder::scratch_len(&plan)];
         Harness {
             plan,
-            tables,
+            decoder,
             scratch,
         }
     }
@@ -163,7 +165,6 @@ impl Harness {
         bits: u8,
     ) -> Vec<PixelCandidates<K>> {
         let frames = row_frames(pixels);
-        let decoder = Decoder::new(&self.plan, &mut self.tables).expect("valid plan");
         let row = Row {
             frames: &frames,
             width: pixels.len(),
@@ -171,7 +172,7 @@ impl Harness {
             column_limits: None,
         };
         let mut out = vec![PixelCandidates::<K>::new(); pixels.len()];
-        decoder
+        self.decoder
             .decode_row(&row, &mut self.scratch, &mut out)
             .expect("row decodes");
         out
@@ -193,14 +194,13 @@ impl Harness {
         group: fsm_core::Group,
         bits: u8,
     ) -> fsm_core::PeakList {
-        let decoder = Decoder::new(&self.plan, &mut self.tables).expect("valid plan");
         let row = Row {
             frames: samples,
             width: 1,
             bit_depth: bits,
             column_limits: None,
         };
-        decoder
+        self.decoder
             .peaks(&row, 0, group, &mut self.scratch)
             .expect("row decodes")
     }
