@@ -141,11 +141,15 @@ pub fn encode_record<const K: usize>(
             height: header.height,
         });
     }
-    if K > header.capacity as usize {
+    if let Some(p) = pixels
+        .iter()
+        .find(|p| p.candidates.len() > header.capacity as usize)
+    {
+        let count = p.candidates.len() as u64;
         return Err(WireError::Field {
             what: WHAT,
-            field: "capacity",
-            value: K as u64,
+            field: "count",
+            value: count,
         });
     }
     let len = record_len(pixels);

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Runs every fuzz target of fsm-core for the given number of seconds each (default 20).
+# Uses the nightly toolchain when present, otherwise the stable one with RUSTC_BOOTSTRAP (the
+# fuzzing flags are unstable), and installs cargo-fuzz if it is missing.
+set -euo pipefail
+cd "$(dirname "$0")"
+seconds=${1:-20}
+command -v cargo-fuzz >/dev/null || cargo install --locked cargo-fuzz@0.13.2
+if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
+    fuzz=(cargo +nightly fuzz)
+else
+    export RUSTC_BOOTSTRAP=1
+    fuzz=(cargo fuzz)
+fi
+for target in $("${fuzz[@]}" list); do
+    echo "== fuzz $target for ${seconds}s"
+    "${fuzz[@]}" run "$target" -- -max_total_time="$seconds" 2>&1 | grep -E '^Done|panicked|ERROR|SUMMARY' || true
+    if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
+        echo "fuzz $target found a crash: core/fuzz/artifacts/$target" >&2
+        exit 1
+    fi
+done
