@@ -18,6 +18,7 @@
 //! | one temporal row → candidates of every pixel | [`decoder`] | §III-F, §IV-B |
 //! | expected scatter | [`noise`] | eqs. 21–22 |
 //! | plans, row dumps, candidate rows as bytes | [`wire`] | SPEC §6 |
+//! | the phase-shift + Gray-code baseline, same candidates | [`phase_shift`] | eqs. 1–3, §VII |
 //!
 //! ```
 //! use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
@@ -51,6 +52,7 @@ pub mod kernel;
 pub mod math;
 pub mod noise;
 pub mod peak;
+pub mod phase_shift;
 pub mod plan;
 pub mod search;
 pub mod sequence;
@@ -60,6 +62,7 @@ pub mod wire;
 pub use candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
 pub use decoder::{Decoder, DecoderError, Row, RowError};
 pub use peak::Peak;
+pub use phase_shift::{PatternSequence, PhaseShiftPlan};
 pub use plan::{
     BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
     PlanError, References, ScanPlan, Window,

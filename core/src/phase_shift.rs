@@ -1,0 +1,282 @@
+//! The comparison baseline of paper §VII: phase shift with Gray-code unwrapping ("PS": 6 phase
+//! offsets + 7 Gray codes), with its own plan type, decoded into the same [`PixelCandidates`]
+//! as FSM so both go through one triangulation and selection path.
+//!
+//! Frames: dark, white, then `steps` fringes `P_k(c) = ½ + ½cos(2πc/T − 2πk/steps)` (paper eq. 1),
+//! then `bits` frames of the complementary Gray code (Zhang et al.): bit `b` (most significant
+//! first) of the Gray code of the half-period index `V = floor(2c/T)`. Its top `bits − 1` bits are
+//! the Gray code of the period index `K₁ = floor(c/T)`, whose edges fall on the phase wrap; all
+//! bits give `K₂ = floor((V + 1)/2) = floor((c + T/2)/T)`, whose edges fall half a period away.
+//! With the phase `u` in turns, the period is `K₂` if `u < ¼`, `K₂ − 1` if `u > ¾` and `K₁`
+//! otherwise: the code is only read far from its own edges, where blur cannot flip a bit.
+//!
+//! A pixel lit by two columns (direct and indirect light) sees the sum of two cosines of the same
+//! frequency: a single phase between them (paper eq. 3). That is the failure FSM removes.
+
+use core::fmt;
+
+use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+use crate::sequence::Group;
+
+/// A phase-shift + Gray-code scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct PhaseShiftPlan {
+    /// Projector columns `cmax`.
+    pub projector_columns: u16,
+    /// Fringe period `T` in columns.
+    pub period_columns: u16,
+    /// Phase offsets, `≥ 3` (the paper uses 6).
+    pub steps: u8,
+    /// Complementary Gray-code frames (the paper uses 7).
+    pub bits: u8,
+    /// A pixel's fringe modulation must exceed this (sensor DN) to be decoded.
+    pub min_modulation_dn: f32,
+}
+
+/// A violated phase-shift plan rule.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(missing_docs)] // each field is the value the variant reports
+pub enum PhaseShiftError {
+    /// Fewer than 3 phase offsets cannot determine a phase.
+    Steps { steps: u8 },
+    /// The period must be at least 2 columns.
+    Period { period_columns: u16 },
+    /// `2^bits` half periods must cover the `cmax` columns.
+    Bits { bits: u8, needed: u8 },
+}
+
+impl fmt::Display for PhaseShiftError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            PhaseShiftError::Steps { steps } => {
+                write!(f, "steps = {steps}: at least 3 phase offsets are needed")
+            }
+            PhaseShiftError::Period { period_columns } => {
+                write!(f, "period_columns = {period_columns}: the fringe period must be at least 2 columns")
+            }
+            PhaseShiftError::Bits { bits, needed } => write!(
+                f,
+                "bits = {bits}: the Gray code must count every period of the projector, {needed} bits needed"
+            ),
+        }
+    }
+}
+
+/// What one frame of a phase-shift scan shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PhaseShiftPattern {
+    /// Projector off.
+    Dark,
+    /// Every column full on.
+    White,
+    /// Fringe with phase offset `2π·step/steps`.
+    Fringe {
+        /// Offset index.
+        step: u8,
+    },
+    /// Complementary Gray-code bit `bit` (0 = most significant) of the half-period index.
+    Gray {
+        /// Bit index, most significant first.
+        bit: u8,
+    },
+}
+
+impl PhaseShiftPlan {
+    /// The paper's PS: 6 phase offsets and 7 Gray codes (6 for the 64 periods of 12 columns
+    /// across 768 columns, and the complementary bit).
+    pub fn paper() -> Self {
+        PhaseShiftPlan {
+            projector_columns: 768,
+            period_columns: 12,
+            steps: 6,
+            bits: 7,
+            min_modulation_dn: 2.0,
+        }
+    }
+
+    /// Checks the plan's rules.
+    pub fn validate(&self) -> Result<(), PhaseShiftError> {
+        if self.steps < 3 {
+            return Err(PhaseShiftError::Steps { steps: self.steps });
+        }
+        if self.period_columns < 2 {
+            return Err(PhaseShiftError::Period {
+                period_columns: self.period_columns,
+            });
+        }
+        let half_periods = (2 * self.projector_columns as u32).div_ceil(self.period_columns as u32);
+        let needed = (u32::BITS - (half_periods - 1).leading_zeros()) as u8;
+        if self.bits < needed || self.bits > 16 {
+            return Err(PhaseShiftError::Bits {
+                bits: self.bits,
+                needed,
+            });
+        }
+        Ok(())
+    }
+
+    /// Frames in the sequence: dark, white, fringes, Gray codes.
+    pub fn sequence_len(&self) -> usize {
+        2 + self.steps as usize + self.bits as usize
+    }
+
+    /// The pattern of frame `index`.
+    pub fn pattern(&self, index: usize) -> Option<PhaseShiftPattern> {
+        let steps = self.steps as usize;
+        match index {
+            0 => Some(PhaseShiftPattern::Dark),
+            1 => Some(PhaseShiftPattern::White),
+            i if i < 2 + steps => Some(PhaseShiftPattern::Fringe {
+                step: (i - 2) as u8,
+            }),
+            i if i < self.sequence_len() => Some(PhaseShiftPattern::Gray {
+                bit: (i - 2 - steps) as u8,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Relative intensity of `pattern` at `column` (dark outside the projector).
+    pub fn intensity(&self, pattern: PhaseShiftPattern, column: u32) -> f32 {
+        if column >= self.projector_columns as u32 {
+            return 0.0;
+        }
+        let t = self.period_columns as u64;
+        match pattern {
+            PhaseShiftPattern::Dark => 0.0,
+            PhaseShiftPattern::White => 1.0,
+            PhaseShiftPattern::Fringe { step } => {
+                // 2π(c/T − k/steps), reduced exactly in integers: (c·steps − k·T) / (T·steps).
+                let s = self.steps as u64;
+                let turns =
+                    ((column as u64 * s + (s - step as u64) * t) % (t * s)) as f64 / (t * s) as f64;
+                (0.5 + 0.5 * libm::cos(core::f64::consts::TAU * turns)) as f32
+            }
+            PhaseShiftPattern::Gray { bit } => {
+                let index = 2 * column as u64 / t;
+                let gray = index ^ (index >> 1);
+                let shift = self.bits - 1 - bit;
+                ((gray >> shift) & 1) as f32
+            }
+        }
+    }
+
+    /// Decodes one pixel from its samples in sequence order: one candidate (column, fringe
+    /// modulation) or none when the modulation is below `min_modulation_dn` or the Gray code
+    /// points outside `range`.
+    pub fn decode_pixel<const K: usize>(
+        &self,
+        samples: impl Fn(usize) -> u16,
+        saturation: u16,
+        range: &ColumnRange,
+        out: &mut PixelCandidates<K>,
+    ) {
+        out.clear();
+        let steps = self.steps as usize;
+        let (dark, white) = (samples(0) as f32, samples(1) as f32);
+        let (mut re, mut im) = (0.0f32, 0.0f32);
+        let mut saturated = samples(0) >= saturation || samples(1) >= saturation;
+        for k in 0..steps {
+            let s = samples(2 + k);
+            saturated |= s >= saturation;
+            let (sin, cos) = self.offset(k);
+            re += s as f32 * cos;
+            im += s as f32 * sin;
+        }
+        if saturated {
+            out.flags.insert(PixelFlags::SATURATED);
+        }
+        // Σ I_k e^{iθ_k} = (steps/2)·B·e^{iφ}, φ = 2πc/T.
+        let modulation = 2.0 * crate::math::sqrt(re * re + im * im) / steps as f32;
+        if !(modulation > self.min_modulation_dn) {
+            return;
+        }
+        let mut turns = libm::atan2f(im, re) / core::f32::consts::TAU;
+        if turns < 0.0 {
+            turns += 1.0;
+        }
+        let threshold = 0.5 * (dark + white);
+        let mut gray = 0u32;
+        for b in 0..self.bits as usize {
+            let s = samples(2 + steps + b);
+            gray = (gray << 1) | (s as f32 > threshold) as u32;
+        }
+        let mut half = gray;
+        let mut shift = 1;
+        while shift < 32 {
+            half ^= half >> shift;
+            shift <<= 1;
+        }
+        let (k1, k2) = ((half >> 1) as f32, ((half + 1) >> 1) as f32);
+        let whole = if turns < 0.25 {
+            k2
+        } else if turns > 0.75 {
+            k2 - 1.0
+        } else {
+            k1
+        };
+        let column = (whole + turns) * self.period_columns as f32;
+        if range.contains(column) {
+            let candidate = Candidate {
+                column,
+                amplitude: modulation,
+                groups: GroupSet::only(Group::One),
+                group: Group::One,
+                peak: 0,
+                block: 0,
+            };
+            out.offer(candidate, 0.0, |_, _| false);
+        }
+    }
+
+    /// `(sin θ_k, cos θ_k)` of offset `k`, `θ_k = 2πk/steps`.
+    fn offset(&self, k: usize) -> (f32, f32) {
+        let a = core::f64::consts::TAU * k as f64 / self.steps as f64;
+        (libm::sin(a) as f32, libm::cos(a) as f32)
+    }
+}
+
+/// A sequence of projected frames, each a value per projector column: what a simulator renders
+/// and a pattern writer draws, for FSM plans and the phase-shift baseline alike.
+pub trait PatternSequence {
+    /// Projector columns.
+    fn projector_columns(&self) -> u16;
+    /// Frames in the sequence.
+    fn frame_count(&self) -> usize;
+    /// Relative intensity in `[0, 1]` of frame `frame` at `column`.
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32;
+}
+
+impl PatternSequence for crate::plan::ScanPlan {
+    fn projector_columns(&self) -> u16 {
+        self.projector_columns
+    }
+
+    fn frame_count(&self) -> usize {
+        self.sequence_len()
+    }
+
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
+        self.pattern(frame)
+            .map_or(0.0, |p| self.intensity(p, column))
+    }
+}
+
+impl PatternSequence for PhaseShiftPlan {
+    fn projector_columns(&self) -> u16 {
+        self.projector_columns
+    }
+
+    fn frame_count(&self) -> usize {
+        self.sequence_len()
+    }
+
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
+        self.pattern(frame)
+            .map_or(0.0, |p| self.intensity(p, column))
+    }
+}
