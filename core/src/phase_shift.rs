@@ -192,7 +192,7 @@ impl PhaseShiftPlan {
         }
         // Σ I_k e^{iθ_k} = (steps/2)·B·e^{iφ}, φ = 2πc/T.
         let modulation = 2.0 * crate::math::sqrt(re * re + im * im) / steps as f32;
-        if !(modulation > self.min_modulation_dn) {
+        if modulation <= self.min_modulation_dn {
             return;
         }
         let mut turns = libm::atan2f(im, re) / core::f32::consts::TAU;
