@@ -1,0 +1,370 @@
+//! Semi-global selection of the direct candidate (SPEC §4, paper §III-E, eqs. 10–13).
+//!
+//! Each pixel `v` has candidates `V_v`, each triangulated to a 3D point with the amplitude `I_c`
+//! of its peak. A labelling `g` picks one candidate per pixel, or none, and minimises
+//!
+//! ```text
+//! E(g) = Σ_v C(v, g(v)) + Σ_v Σ_{u ∈ N(v)} β·max(0, D(v, u) − ε)          (eqs. 10–11)
+//! ```
+//!
+//! with `D` the distance between the chosen points of neighbours. The data term is the paper's
+//! `−I_c`, divided by the pixel's strongest amplitude so that it does not depend on the surface's
+//! albedo or the light level: `C = −I_c / max I`, in `[−1, 0)`. The energy is minimised
+//! semi-globally (Hirschmüller, paper ref. [34]): costs are aggregated along 8 (or 16) straight
+//! paths through the image,
+//!
+//! ```text
+//! L_r(v, l) = C(v, l) + min_{l'} (L_r(v − r, l') + S(l, l')) − min_{l'} L_r(v − r, l'),
+//! ```
+//!
+//! and each pixel takes the label of least `Σ_r L_r(v, l)`. Label sets differ from pixel to
+//! pixel, so `S` is evaluated between the actual points of neighbours; a pixel without candidates
+//! ends the paths through it. "None" is not a label: as one, it would let a path step from the
+//! real surface to a fictitious one for two cheap steps instead of the jump `β·(D − ε)`, and
+//! then collect a stronger fictitious data term pixel after pixel. Instead a pixel keeps no
+//! candidate when its choice is isolated: neighbours have chosen, none within `2ε` of it.
+//! The direct illumination is the chosen candidate's amplitude (eq. 12), the indirect
+//! illumination the sum of the others (eq. 13).
+
+use rayon::prelude::*;
+
+/// One candidate of a pixel, triangulated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Label {
+    /// 3D point in the camera frame, millimetres.
+    pub point_mm: [f32; 3],
+    /// Fringe modulation of its peak, sensor DN (`I_c`).
+    pub amplitude: f32,
+}
+
+/// The candidates of every pixel of an image, row-major.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CandidateField {
+    width: usize,
+    height: usize,
+    /// `labels[starts[i]..starts[i + 1]]` are pixel `i`'s.
+    starts: Vec<u32>,
+    labels: Vec<Label>,
+}
+
+impl CandidateField {
+    /// A field of `width × height` pixels, filled by `labels(x, y)`.
+    pub fn from_fn<I>(
+        width: usize,
+        height: usize,
+        mut labels: impl FnMut(usize, usize) -> I,
+    ) -> Self
+    where
+        I: IntoIterator<Item = Label>,
+    {
+        let mut field = CandidateField {
+            width,
+            height,
+            starts: Vec::with_capacity(width * height + 1),
+            labels: Vec::new(),
+        };
+        field.starts.push(0);
+        for y in 0..height {
+            for x in 0..width {
+                field.labels.extend(labels(x, y));
+                field.starts.push(field.labels.len() as u32);
+            }
+        }
+        field
+    }
+
+    /// Image width.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Image height.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// The candidates of pixel `(x, y)`.
+    pub fn labels(&self, x: usize, y: usize) -> &[Label] {
+        let i = y * self.width + x;
+        &self.labels[self.starts[i] as usize..self.starts[i + 1] as usize]
+    }
+
+    /// Candidates in the field.
+    pub fn len(&self) -> usize {
+        self.labels.len()
+    }
+
+    /// Whether the field has no candidate at all.
+    pub fn is_empty(&self) -> bool {
+        self.labels.is_empty()
+    }
+}
+
+/// The aggregation paths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Paths {
+    /// Horizontal, vertical and diagonal, both ways (Hirschmüller's default).
+    Eight,
+    /// The eight plus the knight's moves.
+    Sixteen,
+}
+
+impl Paths {
+    fn directions(self) -> &'static [(i32, i32)] {
+        const EIGHT: [(i32, i32); 8] = [
+            (1, 0),
+            (-1, 0),
+            (0, 1),
+            (0, -1),
+            (1, 1),
+            (-1, -1),
+            (1, -1),
+            (-1, 1),
+        ];
+        const SIXTEEN: [(i32, i32); 16] = [
+            (1, 0),
+            (-1, 0),
+            (0, 1),
+            (0, -1),
+            (1, 1),
+            (-1, -1),
+            (1, -1),
+            (-1, 1),
+            (2, 1),
+            (-2, -1),
+            (2, -1),
+            (-2, 1),
+            (1, 2),
+            (-1, -2),
+            (1, -2),
+            (-1, 2),
+        ];
+        match self {
+            Paths::Eight => &EIGHT,
+            Paths::Sixteen => &SIXTEEN,
+        }
+    }
+}
+
+/// Parameters of eqs. 10–11.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SelectionParams {
+    /// Aggregation paths.
+    pub paths: Paths,
+    /// `ε`: neighbours closer than this (mm) cost nothing: the system's discrimination distance.
+    pub epsilon_mm: f32,
+    /// `β`: cost per millimetre beyond `ε`, in units of the strongest candidate's data term.
+    pub beta_per_mm: f32,
+    /// Drop a choice that no chosen neighbour lies within `2ε` of.
+    pub drop_isolated: bool,
+}
+
+impl SelectionParams {
+    /// Defaults derived from the system: `footprint_mm` is the distance between the points of
+    /// neighbouring pixels on a surface facing the camera at the working distance (depth over
+    /// focal length in pixels). Neighbours on a surface tilted up to ~75° are within
+    /// `ε = 4·footprint`; a jump costs `β = 1/footprint` per mm beyond that, so a fictitious
+    /// surface a few millimetres away is dearer than any data term it could win.
+    pub fn for_footprint(footprint_mm: f32) -> Self {
+        SelectionParams {
+            paths: Paths::Eight,
+            epsilon_mm: 4.0 * footprint_mm,
+            beta_per_mm: 1.0 / footprint_mm,
+            drop_isolated: true,
+        }
+    }
+}
+
+/// The outcome of the selection.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Selection {
+    /// Image width.
+    pub width: usize,
+    /// Image height.
+    pub height: usize,
+    /// Per pixel, the index of the chosen candidate in its label list, or `None` (no candidate,
+    /// or an isolated choice).
+    pub choice: Vec<Option<u16>>,
+    /// `I_d` (eq. 12): the chosen candidate's amplitude, 0 where none.
+    pub direct: Vec<f32>,
+    /// `I_id` (eq. 13): the sum of the other candidates' amplitudes.
+    pub indirect: Vec<f32>,
+}
+
+/// Minimises eq. 10 semi-globally; directions are aggregated in parallel.
+pub fn select(field: &CandidateField, params: &SelectionParams) -> Selection {
+    let data = data_costs(field);
+    let total = params
+        .paths
+        .directions()
+        .par_iter()
+        .map(|&d| aggregate(field, &data, params, d))
+        .reduce(
+            || vec![0.0f32; data.len()],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+                a
+            },
+        );
+    let pixels = field.width * field.height;
+    let mut choice = vec![None; pixels];
+    for (i, c) in choice.iter_mut().enumerate() {
+        let (start, end) = (field.starts[i] as usize, field.starts[i + 1] as usize);
+        // The least cost; ties go to the lower index (candidates come strongest first).
+        let costs = &total[start..end];
+        let best = (0..costs.len()).fold(None, |best: Option<usize>, l| match best {
+            Some(b) if costs[b] <= costs[l] => Some(b),
+            _ => Some(l),
+        });
+        *c = best.map(|b| b as u16);
+    }
+    if params.drop_isolated {
+        choice = drop_isolated(field, &choice, 2.0 * params.epsilon_mm);
+    }
+    let mut selection = Selection {
+        width: field.width,
+        height: field.height,
+        choice,
+        direct: vec![0.0; pixels],
+        indirect: vec![0.0; pixels],
+    };
+    for i in 0..pixels {
+        let labels = &field.labels[field.starts[i] as usize..field.starts[i + 1] as usize];
+        let all: f32 = labels.iter().map(|l| l.amplitude).sum();
+        let direct = selection.choice[i].map_or(0.0, |c| labels[c as usize].amplitude);
+        selection.direct[i] = direct;
+        selection.indirect[i] = all - direct;
+    }
+    selection
+}
+
+/// Clears every choice that has chosen 8-neighbours but none within `reach_mm` of it.
+fn drop_isolated(
+    field: &CandidateField,
+    choice: &[Option<u16>],
+    reach_mm: f32,
+) -> Vec<Option<u16>> {
+    let (w, h) = (field.width as i32, field.height as i32);
+    let point = |x: i32, y: i32| {
+        let i = (y * w + x) as usize;
+        choice[i].map(|c| field.labels[field.starts[i] as usize + c as usize].point_mm)
+    };
+    let mut kept = choice.to_vec();
+    for y in 0..h {
+        for x in 0..w {
+            let Some(p) = point(x, y) else { continue };
+            let mut chosen_neighbours = 0;
+            let mut near = false;
+            for (dx, dy) in [
+                (-1, -1),
+                (0, -1),
+                (1, -1),
+                (-1, 0),
+                (1, 0),
+                (-1, 1),
+                (0, 1),
+                (1, 1),
+            ] {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                    continue;
+                }
+                if let Some(q) = point(nx, ny) {
+                    chosen_neighbours += 1;
+                    near |= distance_mm(&p, &q) <= reach_mm;
+                }
+            }
+            if chosen_neighbours > 0 && !near {
+                kept[(y * w + x) as usize] = None;
+            }
+        }
+    }
+    kept
+}
+
+/// `C(v, l) = −I_l / max I` per candidate.
+fn data_costs(field: &CandidateField) -> Vec<f32> {
+    let mut data = Vec::with_capacity(field.labels.len());
+    for i in 0..field.width * field.height {
+        let labels = &field.labels[field.starts[i] as usize..field.starts[i + 1] as usize];
+        let strongest = labels.iter().map(|l| l.amplitude).fold(0.0f32, f32::max);
+        for l in labels {
+            data.push(if strongest > 0.0 {
+                -l.amplitude / strongest
+            } else {
+                0.0
+            });
+        }
+    }
+    data
+}
+
+/// `L_r` of every candidate for direction `(dx, dy)`.
+fn aggregate(
+    field: &CandidateField,
+    data: &[f32],
+    params: &SelectionParams,
+    (dx, dy): (i32, i32),
+) -> Vec<f32> {
+    let (w, h) = (field.width as i32, field.height as i32);
+    let mut path = vec![0.0f32; data.len()];
+    let most = (0..field.width * field.height)
+        .map(|i| (field.starts[i + 1] - field.starts[i]) as usize)
+        .max()
+        .unwrap_or(0);
+    let mut scratch = vec![0.0f32; most];
+    // Visit rows (then columns) so that v − r is always visited before v.
+    let ys: Vec<i32> = if dy >= 0 {
+        (0..h).collect()
+    } else {
+        (0..h).rev().collect()
+    };
+    let xs: Vec<i32> = if dx >= 0 {
+        (0..w).collect()
+    } else {
+        (0..w).rev().collect()
+    };
+    for &y in &ys {
+        for &x in &xs {
+            let i = (y * w + x) as usize;
+            let (vs, ve) = (field.starts[i] as usize, field.starts[i + 1] as usize);
+            if vs == ve {
+                continue;
+            }
+            let (px, py) = (x - dx, y - dy);
+            let (ps, pe) = if px < 0 || py < 0 || px >= w || py >= h {
+                (0, 0)
+            } else {
+                let p = (py * w + px) as usize;
+                (field.starts[p] as usize, field.starts[p + 1] as usize)
+            };
+            if ps == pe {
+                // A path starts here: at the border or after a pixel without candidates.
+                path[vs..ve].copy_from_slice(&data[vs..ve]);
+                continue;
+            }
+            let previous = &path[ps..pe];
+            let floor = previous.iter().copied().fold(f32::INFINITY, f32::min);
+            let current = &mut scratch[..ve - vs];
+            for (l, c) in current.iter_mut().enumerate() {
+                let here = &field.labels[vs + l].point_mm;
+                let mut best = f32::INFINITY;
+                for (k, &prev) in previous.iter().enumerate() {
+                    let distance = distance_mm(here, &field.labels[ps + k].point_mm);
+                    let step = params.beta_per_mm * (distance - params.epsilon_mm).max(0.0);
+                    best = best.min(prev + step);
+                }
+                *c = data[vs + l] + best - floor;
+            }
+            path[vs..ve].copy_from_slice(current);
+        }
+    }
+    path
+}
+
+fn distance_mm(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    let (x, y, z) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    (x * x + y * y + z * z).sqrt()
+}

@@ -1,0 +1,191 @@
+//! Semi-global selection on synthetic candidate fields with known surfaces.
+
+use fsm_scan::{select, CandidateField, Label, Paths, SelectionParams};
+use proptest::prelude::*;
+
+const FOOTPRINT_MM: f32 = 0.5;
+
+/// A tilted plane facing the camera: pixel (x, y) sees (x, y)·footprint at depth 500 + 0.1·x mm.
+fn plane(x: usize, y: usize) -> [f32; 3] {
+    [
+        x as f32 * FOOTPRINT_MM,
+        y as f32 * FOOTPRINT_MM,
+        500.0 + 0.1 * x as f32,
+    ]
+}
+
+/// What a mirror beside the plane adds in a patch: a second, smooth surface 40 mm behind.
+fn fictitious(x: usize, y: usize) -> [f32; 3] {
+    let p = plane(x, y);
+    [p[0] * 1.08, p[1] * 1.08, p[2] + 40.0 + 0.05 * y as f32]
+}
+
+fn in_patch(x: usize, y: usize) -> bool {
+    (40..100).contains(&x) && (20..60).contains(&y)
+}
+
+fn mirror_field(direct: f32, indirect: f32) -> CandidateField {
+    CandidateField::from_fn(120, 80, |x, y| {
+        let mut labels = vec![Label {
+            point_mm: plane(x, y),
+            amplitude: direct,
+        }];
+        if in_patch(x, y) {
+            labels.push(Label {
+                point_mm: fictitious(x, y),
+                amplitude: indirect,
+            });
+        }
+        // Strongest first, as the decoder orders candidates.
+        labels.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+        labels
+    })
+}
+
+fn share_direct(field: &CandidateField, params: &SelectionParams) -> f64 {
+    let selection = select(field, params);
+    let (mut right, mut total) = (0, 0);
+    for y in 0..field.height() {
+        for x in 0..field.width() {
+            if !in_patch(x, y) {
+                continue;
+            }
+            total += 1;
+            let chosen =
+                selection.choice[y * field.width() + x].map(|i| field.labels(x, y)[i as usize]);
+            right += chosen.is_some_and(|l| l.point_mm == plane(x, y)) as usize;
+        }
+    }
+    right as f64 / total as f64
+}
+
+#[test]
+fn the_continuous_surface_wins_even_where_the_indirect_light_is_stronger() {
+    let params = SelectionParams::for_footprint(FOOTPRINT_MM);
+    for (direct, indirect) in [(1.0, 0.5), (1.0, 1.0), (0.6, 1.0), (0.3, 1.0)] {
+        let share = share_direct(&mirror_field(direct, indirect), &params);
+        println!(
+            "direct {direct}, indirect {indirect}: {:.2}% of the patch picks the real surface",
+            100.0 * share
+        );
+        assert!(
+            share >= 0.99,
+            "direct {direct} indirect {indirect}: {share}"
+        );
+    }
+    let sixteen = SelectionParams {
+        paths: Paths::Sixteen,
+        ..params
+    };
+    assert!(share_direct(&mirror_field(0.6, 1.0), &sixteen) >= 0.99);
+}
+
+#[test]
+fn the_strongest_candidate_wins_without_a_neighbourhood_to_say_otherwise() {
+    // The data term alone: isolated pixels (no neighbours with candidates).
+    let field = CandidateField::from_fn(5, 1, |x, _| {
+        if x == 2 {
+            vec![
+                Label {
+                    point_mm: [0.0, 0.0, 500.0],
+                    amplitude: 9.0,
+                },
+                Label {
+                    point_mm: [0.0, 0.0, 700.0],
+                    amplitude: 3.0,
+                },
+            ]
+        } else {
+            vec![]
+        }
+    });
+    let s = select(&field, &SelectionParams::for_footprint(FOOTPRINT_MM));
+    assert_eq!(s.choice, vec![None, None, Some(0), None, None]);
+    assert_eq!((s.direct[2], s.indirect[2]), (9.0, 3.0));
+}
+
+#[test]
+fn a_real_depth_step_keeps_both_sides() {
+    // Two planes 30 mm apart meet at x = 60; every pixel has one candidate.
+    let field = CandidateField::from_fn(120, 40, |x, y| {
+        let mut p = plane(x, y);
+        if x >= 60 {
+            p[2] += 30.0;
+        }
+        vec![Label {
+            point_mm: p,
+            amplitude: 1.0,
+        }]
+    });
+    let s = select(&field, &SelectionParams::for_footprint(FOOTPRINT_MM));
+    assert!(
+        s.choice.iter().all(|c| *c == Some(0)),
+        "pixels dropped at the step"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Whatever the field: choices index real candidates, and eqs. 12–13 split the light.
+    #[test]
+    fn choices_are_valid_and_split_the_light(
+        seed in any::<u64>(),
+        width in 1usize..12,
+        height in 1usize..12,
+        sixteen in any::<bool>(),
+    ) {
+        let mut state = seed | 1;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let field = CandidateField::from_fn(width, height, |_, _| {
+            let n = (next() * 5.0) as usize;
+            (0..n).map(|_| Label { point_mm: [next() * 100.0, next() * 100.0, 400.0 + next() * 200.0], amplitude: next() * 100.0 }).collect::<Vec<_>>()
+        });
+        let params = SelectionParams { paths: if sixteen { Paths::Sixteen } else { Paths::Eight }, ..SelectionParams::for_footprint(0.5) };
+        let s = select(&field, &params);
+        for y in 0..height {
+            for x in 0..width {
+                let i = y * width + x;
+                let labels = field.labels(x, y);
+                let total: f32 = labels.iter().map(|l| l.amplitude).sum();
+                if let Some(c) = s.choice[i] {
+                    prop_assert!((c as usize) < labels.len());
+                }
+                prop_assert!((s.direct[i] + s.indirect[i] - total).abs() <= 1e-3 * total.max(1.0));
+            }
+        }
+    }
+}
+
+#[test]
+fn an_isolated_choice_is_dropped() {
+    // One pixel's only candidate lies 50 mm behind the plane its neighbours chose.
+    let field = CandidateField::from_fn(9, 9, |x, y| {
+        let mut p = plane(x, y);
+        if (x, y) == (4, 4) {
+            p[2] += 50.0;
+        }
+        vec![Label {
+            point_mm: p,
+            amplitude: 1.0,
+        }]
+    });
+    let params = SelectionParams::for_footprint(FOOTPRINT_MM);
+    let s = select(&field, &params);
+    assert_eq!(s.choice[4 * 9 + 4], None);
+    assert_eq!((s.direct[4 * 9 + 4], s.indirect[4 * 9 + 4]), (0.0, 1.0));
+    assert_eq!(s.choice.iter().filter(|c| c.is_some()).count(), 80);
+    let kept = select(
+        &field,
+        &SelectionParams {
+            drop_isolated: false,
+            ..params
+        },
+    );
+    assert_eq!(kept.choice[4 * 9 + 4], Some(0));
+}
