@@ -233,6 +233,19 @@ impl PhaseShiftPlan {
         }
     }
 
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `PS`: the identity row dumps
+    /// of its captures carry (distinct from every FSM plan's, whose bytes never start so).
+    pub fn fingerprint(&self) -> u64 {
+        let mut bytes = [0u8; 12];
+        bytes[..2].copy_from_slice(b"PS");
+        bytes[2..4].copy_from_slice(&self.projector_columns.to_le_bytes());
+        bytes[4..6].copy_from_slice(&self.period_columns.to_le_bytes());
+        bytes[6] = self.steps;
+        bytes[7] = self.bits;
+        bytes[8..12].copy_from_slice(&self.min_modulation_dn.to_le_bytes());
+        crate::wire::crc64(&bytes)
+    }
+
     /// `(sin θ_k, cos θ_k)` of offset `k`, `θ_k = 2πk/steps`.
     fn offset(&self, k: usize) -> (f32, f32) {
         let a = core::f64::consts::TAU * k as f64 / self.steps as f64;
@@ -249,6 +262,8 @@ pub trait PatternSequence {
     fn frame_count(&self) -> usize;
     /// Relative intensity in `[0, 1]` of frame `frame` at `column`.
     fn frame_intensity(&self, frame: usize, column: u32) -> f32;
+    /// Identity of the sequence, carried by row dumps of its captures.
+    fn fingerprint(&self) -> u64;
 }
 
 impl PatternSequence for crate::plan::ScanPlan {
@@ -264,6 +279,10 @@ impl PatternSequence for crate::plan::ScanPlan {
         self.pattern(frame)
             .map_or(0.0, |p| self.intensity(p, column))
     }
+
+    fn fingerprint(&self) -> u64 {
+        crate::plan::ScanPlan::fingerprint(self)
+    }
 }
 
 impl PatternSequence for PhaseShiftPlan {
@@ -278,5 +297,9 @@ impl PatternSequence for PhaseShiftPlan {
     fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
         self.pattern(frame)
             .map_or(0.0, |p| self.intensity(p, column))
+    }
+
+    fn fingerprint(&self) -> u64 {
+        PhaseShiftPlan::fingerprint(self)
     }
 }

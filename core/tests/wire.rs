@@ -209,7 +209,10 @@ fn candidate_rows_round_trip_bit_for_bit() {
     candidates::encode_record(&header, 7, &back, &mut again).unwrap();
     assert_eq!(again, buf[..n]);
     // Capacity limits what a pixel carries, not the writer's list type (found by fuzzing).
-    let narrow = CandidateHeader { capacity: 4, ..header };
+    let narrow = CandidateHeader {
+        capacity: 4,
+        ..header
+    };
     let mut nb = vec![0u8; narrow.max_record_len().unwrap()];
     candidates::encode_record(&narrow, 7, &decoded, &mut nb).unwrap();
     let mut crowded = decoded.clone();
@@ -218,7 +221,17 @@ fn candidate_rows_round_trip_bit_for_bit() {
         crowded[1].candidates.push(c).unwrap();
     }
     let e = candidates::encode_record(&narrow, 7, &crowded, &mut nb).unwrap_err();
-    assert!(matches!(e, WireError::Field { field: "count", value: 5, .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            WireError::Field {
+                field: "count",
+                value: 5,
+                ..
+            }
+        ),
+        "{e}"
+    );
     // A pixel with more candidates than the reader's capacity is an error, not a truncation.
     let mut small = vec![PixelCandidates::<1>::new(); 4];
     assert!(record.read_into(&header, &mut small).is_err());
