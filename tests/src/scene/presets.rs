@@ -1,0 +1,139 @@
+//! The preset scenes, built for the bench system of [`crate::System::bench`] (camera at the
+//! origin, projector 200 mm to its right, both aimed at a point 500 mm in front of the camera).
+//!
+//! | name | what | why |
+//! |---|---|---|
+//! | `plane` | a diffuse plane (albedo 0.8) at 500 mm, facing the camera | accuracy without interreflection |
+//! | `plane_mirror` | the plane and a mirror (reflectance 0.9) standing beside it | strong indirect light: the plane receives the projector's light directly and via the mirror |
+//! | `plane_mirror_covered` | the same with the mirror black | the reference without interreflection (paper's Ed) |
+//! | `vgroove` | two diffuse facets (albedo 0.8) at 90°, the groove's axis vertical | one-bounce diffuse interreflection, concave corner |
+//! | `sphere_mirror` | a diffuse sphere (r 45 mm) before a diffuse wall, a mirror beside | a curved surface lit directly and via the mirror |
+//!
+//! The mirror of `plane_mirror` is a 90 mm × 120 mm rectangle in the plane `x = −60 mm`, its
+//! reflecting face towards `+x` (the projector's side), spanning depths 380–470 mm: it stands
+//! 30 mm off the plane, so the direct and the mirrored column of every plane point it lights
+//! are more than 60 columns apart (well above BFSM's separation limit `2Δc`, paper §IV-C).
+//! The camera sees the plane around the mirror, the strip of plane it lights, and the mirror's
+//! face (whose pixels see the plane through the mirror: no direct light there).
+
+use nalgebra::{Point3, Vector3};
+
+use super::{Material, Scene, Shape, Surface};
+
+/// Names of the preset scenes.
+pub const NAMES: [&str; 5] = [
+    "plane",
+    "plane_mirror",
+    "plane_mirror_covered",
+    "vgroove",
+    "sphere_mirror",
+];
+
+/// Ambient light of every preset: 2% of the reference white.
+const AMBIENT: f64 = 0.02;
+
+fn rectangle(
+    name: &str,
+    centre: [f64; 3],
+    half_u: [f64; 3],
+    half_v: [f64; 3],
+    material: Material,
+) -> Surface {
+    Surface {
+        name: name.into(),
+        shape: Shape::Rectangle {
+            centre: Point3::from(centre),
+            half_u: Vector3::from(half_u),
+            half_v: Vector3::from(half_v),
+        },
+        material,
+    }
+}
+
+/// The diffuse plane at 500 mm, 800 mm square (it fills the camera's view).
+fn plane(z: f64, albedo: f64) -> Surface {
+    // Front normal half_u × half_v = (0, 0, −1): towards the camera.
+    rectangle(
+        "plane",
+        [0.0, 0.0, z],
+        [0.0, 400.0, 0.0],
+        [400.0, 0.0, 0.0],
+        Material::Diffuse { albedo },
+    )
+}
+
+/// A mirror in the plane `x = x_mm`, reflecting towards `+x`, over depths `z0..z1`, heights
+/// `±half_height`.
+fn mirror(x_mm: f64, z0: f64, z1: f64, half_height: f64, material: Material) -> Surface {
+    // Front normal half_u × half_v = (0, 0, h)×(0, h', 0)… choose half_u along y, half_v along
+    // z: (0, a, 0) × (0, 0, b) = (a·b, 0, 0), +x for a, b > 0.
+    rectangle(
+        "mirror",
+        [x_mm, 0.0, 0.5 * (z0 + z1)],
+        [0.0, half_height, 0.0],
+        [0.0, 0.0, 0.5 * (z1 - z0)],
+        material,
+    )
+}
+
+const MIRROR: Material = Material::Mirror { reflectance: 0.9 };
+
+impl Scene {
+    /// A preset scene by name (see [`NAMES`]).
+    pub fn preset(name: &str) -> Option<Scene> {
+        let scene = |surfaces, diffuse_emitters| Scene {
+            name: name.into(),
+            surfaces,
+            ambient: AMBIENT,
+            diffuse_emitters,
+        };
+        Some(match name {
+            "plane" => scene(vec![plane(500.0, 0.8)], vec![]),
+            "plane_mirror" => scene(
+                vec![plane(500.0, 0.8), mirror(-60.0, 380.0, 470.0, 60.0, MIRROR)],
+                vec![],
+            ),
+            "plane_mirror_covered" => scene(
+                vec![
+                    plane(500.0, 0.8),
+                    mirror(-60.0, 380.0, 470.0, 60.0, Material::Black),
+                ],
+                vec![],
+            ),
+            "vgroove" => {
+                // Corner line at x = 0, z = 560; facets rise at 45° to x = ±150, z = 410.
+                let a = rectangle(
+                    "facet_left",
+                    [-75.0, 0.0, 485.0],
+                    [-75.0, 0.0, -75.0],
+                    [0.0, 110.0, 0.0],
+                    Material::Diffuse { albedo: 0.8 },
+                );
+                let b = rectangle(
+                    "facet_right",
+                    [75.0, 0.0, 485.0],
+                    [0.0, 110.0, 0.0],
+                    [75.0, 0.0, -75.0],
+                    Material::Diffuse { albedo: 0.8 },
+                );
+                scene(vec![a, b], vec![0, 1])
+            }
+            "sphere_mirror" => scene(
+                vec![
+                    plane(520.0, 0.6),
+                    Surface {
+                        name: "sphere".into(),
+                        shape: Shape::Sphere {
+                            centre: Point3::new(20.0, 0.0, 460.0),
+                            radius_mm: 45.0,
+                        },
+                        material: Material::Diffuse { albedo: 0.8 },
+                    },
+                    mirror(-70.0, 380.0, 500.0, 70.0, MIRROR),
+                ],
+                vec![],
+            ),
+            _ => return None,
+        })
+    }
+}
