@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# End-to-end check of the bare-metal firmware: install what is missing, build the ARM ELF,
-# run it under QEMU and check what it computed, the exit codes of every failure path, the
-# determinism of the instruction count, and (if defmt-print is installed) defmt logging.
-# Non-interactive; meant to be called from .ci/run. Ends with the line `N passed, M failed`
-# and exits non-zero if anything failed.
+# End-to-end check of the bare-metal firmware, the one entry point `.ci/run` calls: install what
+# is missing, build the ARM ELF, cross-check its candidates against the host's decode under
+# QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections), check how it
+# refuses bad input, the determinism of its instruction counts, every failure path's exit
+# code, the Rust cross-check test, and (if defmt-print is installed) defmt logging.
+# Non-interactive. Ends with the line `N passed, M failed` and exits non-zero if anything failed.
 #
 # Environment: FW_SKIP_INSTALL=1 to skip scripts/install-toolchain.sh;
 #              FW_WITH_DEFMT_PRINT=1 to also install defmt-print if missing (a few minutes);
@@ -38,68 +39,76 @@ if ! "$S/build-arm.sh" >"$build_log" 2>&1; then
     exit 1
 fi
 grep -A20 '^ *text' "$build_log" || true
-ELF="$(sed -n 's/^FW_ELF=//p' "$build_log" | tail -n1)"
-cp "$ELF" "$WORK/fsm-firmware.elf"
+BUILT_ELF="$(sed -n 's/^FW_ELF=//p' "$build_log" | tail -n1)"
+cp "$BUILT_ELF" "$WORK/fsm-firmware.elf"
 ELF="$WORK/fsm-firmware.elf"
 ok "build-arm.sh -> $(basename "$ELF")"
 
+# Host tools (scene, decode, compare), built once.
+"$HOST_CARGO" build -q --release --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
+TARGET_DIR="$("$HOST_CARGO" metadata --format-version 1 --no-deps --manifest-path "$FW_DIR/Cargo.toml" \
+    | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')"
+TOOL="$TARGET_DIR/release/fsm-firmware"
+
 cd "$WORK"
 
-# 1. Demo without input: exit 0, and the RESULT line equals the host build's.
+# 1. Without input: prints its limits and exits 0.
 set +e
 "$S/run-qemu.sh" "$ELF" >run1.txt 2>&1
 rc=$?
 set -e
 cat run1.txt
-[ "$rc" = 0 ] && ok "demo exits 0" || bad "demo exit code $rc"
-if [ -n "$HOST_CARGO" ]; then
-    host_line="$("$HOST_CARGO" run -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware 2>/dev/null | grep '^RESULT' || true)"
-    fw_line="$(grep '^RESULT' run1.txt || true)"
-    if [ -n "$host_line" ] && [ "$host_line" = "$fw_line" ]; then
-        ok "RESULT line identical on host (x86_64) and firmware (Cortex-A9)"
-    else
-        bad "RESULT lines differ: host '$host_line' vs firmware '$fw_line'"
-    fi
+if [ "$rc" = 0 ] && grep -q '^INPUT none' run1.txt && grep -q 'rows up to 2048 pixels' run1.txt; then
+    ok "no input: limits printed, exit 0"
+else
+    bad "no input: exit code $rc"
 fi
-grep -q '^INPUT none' run1.txt && ok "no input descriptor -> INPUT none" || bad "INPUT none line missing"
 
-# 2. Input placed in RAM by QEMU's loader; output file written/read through semihosting.
-python3 -c 'import os, sys; sys.stdout.buffer.write(bytes((i * 7 + 3) % 251 for i in range(123457)))' >input.bin
-want_crc="$(python3 -c 'import zlib; print("%08x" % zlib.crc32(open("input.bin", "rb").read()))')"
-rm -f fw-out.bin
-set +e
-"$S/run-qemu.sh" "$ELF" input.bin >run2.txt 2>&1
-rc=$?
-set -e
-cat run2.txt
-[ "$rc" = 0 ] && ok "demo with input exits 0" || bad "demo with input: exit code $rc"
-grep -q "^INPUT len=123457 crc32=$want_crc " run2.txt && ok "input bytes seen by firmware (crc32 $want_crc)" \
-    || bad "INPUT line does not show len=123457 crc32=$want_crc"
-if python3 - "$want_crc" <<'EOF'
-import struct, sys
-b = open("fw-out.bin", "rb").read()
-magic, ver, peak_bin, mag, phase, in_len, in_crc, insns = struct.unpack("<4sIIffIII", b)
-assert len(b) == 32 and magic == b"FSMO" and ver == 1, (len(b), magic, ver)
-assert peak_bin == 37 and abs(mag - 1536.0) < 0.01 and abs(phase - 0.5) < 1e-3, (peak_bin, mag, phase)
-assert in_len == 123457 and in_crc == int(sys.argv[1], 16), (in_len, hex(in_crc))
-assert insns == 0, insns  # not under --icount
-EOF
-then ok "fw-out.bin record (semihosting SYS_OPEN/SYS_WRITE/SYS_CLOSE) decodes"; else bad "fw-out.bin record"; fi
+# 2. The cross-check: Cortex-A9 candidates == host candidates, byte for byte.
+if FW_ELF="$ELF" "$S/crosscheck-arm.sh" --rows 32 --width 48 >crosscheck.txt 2>&1; then
+    cat crosscheck.txt
+    ok "crosscheck-arm.sh: BFSM and EFSM (2 groups), 32 rows x 48 pixels, replay and protocol session, bit-identical"
+else
+    cat crosscheck.txt
+    bad "crosscheck-arm.sh"
+fi
 
-# 3. Instruction counts: deterministic, and the same for two shifts that are both exact.
+# 3. Bad input: a dump of another plan, a truncated dump. Refused with a message naming what is
+#    wrong, exit code 3, and no candidate file left behind.
+"$TOOL" scene --plan efsm1 --width 16 --rows 4 --dump small.dump --plan-out small.plan >/dev/null
+"$TOOL" scene --plan efsm2 --width 16 --rows 4 --dump other.dump --plan-out other.plan >/dev/null
+head -c -100 small.dump >truncated.dump
+check_refusal() { # name plan dump expected-message
+    rm -f fw-candidates.bin fw-candidates.bin.part
+    set +e
+    "$S/run-qemu.sh" --plan "$2" "$ELF" "$3" >bad.txt 2>&1
+    local rc=$?
+    set -e
+    if [ "$rc" = 3 ] && grep -q "^ERROR: .*$4" bad.txt && [ ! -e fw-candidates.bin ] && [ ! -e fw-candidates.bin.part ]; then
+        ok "$1 refused: $(grep '^ERROR' bad.txt | cut -c1-110)"
+    else
+        cat bad.txt
+        bad "$1: exit code $rc (want 3, an ERROR line with '$4', no output file)"
+    fi
+}
+check_refusal "dump of another plan" other.plan small.dump "plan_fingerprint"
+check_refusal "truncated dump" small.plan truncated.dump "whole number"
+
+# 4. Instruction counts are deterministic: two runs at shift 4 and one at shift 6 agree.
 count() {
-    ICOUNT_SHIFT="$1" "$S/run-qemu.sh" --icount "$ELF" input.bin 2>/dev/null \
-        | sed -n 's/^ICOUNT shift=[0-9]* rfft_1024 instructions=\([0-9]*\) .*/\1/p'
+    rm -f fw-candidates.bin fw-candidates-per-pixel.bin
+    ICOUNT_SHIFT="$1" "$S/run-qemu.sh" --icount --plan small.plan "$ELF" small.dump 2>/dev/null \
+        | sed -n 's/^BENCH loop .* instructions=\([0-9]*\) .*/\1/p'
 }
 a="$(count 4)"; b="$(count 4)"; c="$(count 6)"
-echo "rfft_1024 instructions: shift4=$a shift4=$b shift6=$c"
-if [ -n "$a" ] && [ "$a" = "$b" ] && [ "$a" = "$c" ] && [ "$a" -gt 10000 ]; then
-    ok "instruction count deterministic: rfft_1024 = $a instructions"
+echo "EFSM (1 group), 4 rows x 16 pixels, loop instructions: shift4=$a shift4=$b shift6=$c"
+if [ -n "$a" ] && [ "$a" = "$b" ] && [ "$a" = "$c" ] && [ "$a" -gt 100000 ]; then
+    ok "instruction count deterministic: $a instructions for 64 pixels"
 else
     bad "instruction counts differ or missing: '$a' '$b' '$c'"
 fi
 
-# 4. Failure paths end QEMU with the right exit code.
+# 5. Failure paths end QEMU with the right exit code.
 for t in panic:101 abort:102 undef:102 exit:7:7; do
     name="${t%:*}"
     want="${t##*:}"
@@ -115,7 +124,18 @@ for t in panic:101 abort:102 undef:102 exit:7:7; do
     fi
 done
 
-# 5. defmt frames over semihosting, decoded on the host.
+# 6. The Rust test that runs the cross-check (it skips when QEMU or a fresh ELF is missing;
+#    here both are present, so it must run, not skip).
+if FW_ELF="$BUILT_ELF" "$HOST_CARGO" test -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware \
+    --test qemu_crosscheck -- --nocapture >rusttest.txt 2>&1 && ! grep -q '^SKIP' rusttest.txt; then
+    grep -E '^(ok|identical)' rusttest.txt || true
+    ok "cargo test -p fsm-firmware --test qemu_crosscheck"
+else
+    cat rusttest.txt
+    bad "cargo test -p fsm-firmware --test qemu_crosscheck"
+fi
+
+# 7. defmt frames over semihosting, decoded on the host.
 if [ "${FW_SKIP_DEFMT:-0}" = 1 ]; then
     echo "skip - defmt (FW_SKIP_DEFMT=1)"
 elif ! command -v defmt-print >/dev/null; then
@@ -124,15 +144,15 @@ else
     if "$S/build-arm.sh" --defmt >build-defmt.log 2>&1; then
         DELF="$(sed -n 's/^FW_ELF=//p' build-defmt.log | tail -n1)"
         cp "$DELF" defmt.elf
-        rm -f defmt.bin
+        rm -f defmt.bin fw-candidates.bin
         set +e
-        "$S/run-qemu.sh" --icount defmt.elf input.bin >run-defmt.txt 2>&1
+        "$S/run-qemu.sh" --plan small.plan defmt.elf small.dump >run-defmt.txt 2>&1
         rc=$?
         set -e
         defmt-print -e defmt.elf <defmt.bin >defmt.txt 2>&1 || true
         cat defmt.txt
-        if [ "$rc" = 0 ] && grep -q 'INFO  rfft_1024: peak bin 37 mag 1536' defmt.txt \
-            && grep -q "crc32 0x$want_crc" defmt.txt && grep -q 'INFO  done' defmt.txt; then
+        if [ "$rc" = 0 ] && grep -q 'INFO  plan .* accepted' defmt.txt \
+            && grep -q 'INFO  decoded 4 rows of 16 pixels' defmt.txt; then
             ok "defmt log written over semihosting and decoded by $(defmt-print --version | head -n1)"
         else
             bad "defmt log (run exit $rc)"
@@ -141,6 +161,8 @@ else
         cat build-defmt.log
         bad "build-arm.sh --defmt"
     fi
+    # The default ELF again, for anything that runs after this script.
+    "$S/build-arm.sh" >/dev/null 2>&1 || bad "build-arm.sh (rebuild without defmt)"
 fi
 
 echo "$pass passed, $fail failed"

@@ -2,10 +2,12 @@
 # Run the firmware ELF under QEMU's Zynq-7000 model and propagate its exit status.
 #
 # Usage: scripts/run-qemu.sh [options] <elf> [input-file]
+#   --plan FILE      put a scan plan (its 64 canonical bytes) into the plan mailbox at
+#                    0x03FFFF08 with the descriptor {"PLAN", 64} at 0x03FFFF00 (src/layout.rs)
 #   --icount         instruction-count mode: `-icount shift=$ICOUNT_SHIFT` (default 4) and tell
 #                    the firmware the shift (descriptor "ICNT" at 0x03FFFFE8), so that it prints
-#                    exact instruction counts (`ICOUNT ... instructions=N`). See src/icount.rs.
-#   --selftest NAME  make the firmware take a failure path instead of the demo:
+#                    exact instruction counts (`BENCH ... instructions=N`). See src/icount.rs.
+#   --selftest NAME  make the firmware take a failure path instead of its work:
 #                    panic (exit 101), abort (data abort, 102), undef (102), exit:N (N)
 #   --timeout SECS   kill QEMU after SECS seconds (default $QEMU_TIMEOUT or 60): exit code 124
 #   --trace FILE     also log every executed instruction's PC (-d exec,nochain + -singlestep)
@@ -14,7 +16,7 @@
 # The input file (at most 64 MiB) is placed raw at 0x04000000 with QEMU's generic loader and
 # its length in the descriptor {"FSMI", length} at 0x03FFFFF0 (src/layout.rs).
 # The firmware's console output (semihosting) goes to stdout, this script's and QEMU's own
-# messages to stderr. Semihosting file paths (fw-out.bin, defmt.bin) are relative to the
+# messages to stderr. Semihosting file paths (fw-candidates.bin, defmt.bin) are relative to the
 # current directory.
 # Exit status: QEMU's, i.e. the firmware's semihosting exit code (0 = success, 101 = panic,
 # 102 = CPU exception), 124 on timeout.
@@ -26,12 +28,14 @@ ICOUNT=0
 SHIFT="${ICOUNT_SHIFT:-4}"
 SELFTEST=""
 TRACE=""
+PLAN=""
 
-usage() { sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
     case "$1" in
         --icount) ICOUNT=1 ;;
+        --plan) [ $# -ge 2 ] || usage; PLAN="$2"; shift ;;
         --selftest) [ $# -ge 2 ] || usage; SELFTEST="$2"; shift ;;
         --timeout) [ $# -ge 2 ] || usage; TIMEOUT="$2"; shift ;;
         --trace) [ $# -ge 2 ] || usage; TRACE="$2"; shift ;;
@@ -54,9 +58,12 @@ INPUT_MAX=$((0x04000000))
 INPUT_DESC=0x03fffff0
 ICOUNT_DESC=0x03ffffe8
 SELFTEST_DESC=0x03ffffe0
+PLAN_DESC=0x03ffff00
+PLAN_BYTES=0x03ffff08
 MAGIC_FSMI=0x494d5346   # "FSMI"
 MAGIC_ICNT=0x544e4349   # "ICNT"
 MAGIC_TEST=0x54534554   # "TEST"
+MAGIC_PLAN=0x4e414c50   # "PLAN"
 
 word() { # addr value: one little-endian u32 written by QEMU's generic loader
     printf -- '-device\nloader,addr=%s,data=%s,data-len=4\n' "$1" "$2"
@@ -74,6 +81,14 @@ if [ -n "$INPUT" ]; then
     case "$INPUT" in *,*) echo "run-qemu: input path must not contain a comma" >&2; exit 2 ;; esac
     args+=(-device "loader,file=$INPUT,addr=$INPUT_ADDR,force-raw=on")
     mapfile -t -O "${#args[@]}" args < <(word "$INPUT_DESC" "$MAGIC_FSMI"; word "$((0x03fffff4))" "$len")
+fi
+
+if [ -n "$PLAN" ]; then
+    [ -f "$PLAN" ] || { echo "run-qemu: no such plan file: $PLAN" >&2; exit 2; }
+    [ "$(stat -c %s "$PLAN")" = 64 ] || { echo "run-qemu: plan file $PLAN is not 64 bytes" >&2; exit 2; }
+    case "$PLAN" in *,*) echo "run-qemu: plan path must not contain a comma" >&2; exit 2 ;; esac
+    args+=(-device "loader,file=$PLAN,addr=$PLAN_BYTES,force-raw=on")
+    mapfile -t -O "${#args[@]}" args < <(word "$PLAN_DESC" "$MAGIC_PLAN"; word "$((0x03ffff04))" 64)
 fi
 
 if [ "$ICOUNT" = 1 ]; then

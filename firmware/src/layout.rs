@@ -19,6 +19,30 @@ pub const INPUT_BASE: usize = 0x0400_0000;
 /// Largest input that fits below the end of QEMU's default 128 MiB of DDR.
 pub const INPUT_MAX_LEN: usize = 0x0400_0000;
 
+/// Address of the plan descriptor: `u32` magic [`PLAN_MAGIC`], then `u32` length (64), then
+/// the plan's canonical bytes (`ScanPlan::to_bytes`) at [`PLAN_BYTES_ADDR`]. Written by
+/// `scripts/run-qemu.sh --plan <file>`.
+pub const PLAN_DESC_ADDR: usize = 0x03FF_FF00;
+/// Where the plan bytes start.
+pub const PLAN_BYTES_ADDR: usize = PLAN_DESC_ADDR + 8;
+/// "PLAN" as a little-endian `u32`.
+pub const PLAN_MAGIC: u32 = u32::from_le_bytes(*b"PLAN");
+
+/// The plan length from a descriptor, if valid.
+pub fn plan_len_from_descriptor(magic: u32, len: u32) -> Option<usize> {
+    (magic == PLAN_MAGIC && len as usize == fsm_core::wire::plan::PLAN_LEN).then_some(len as usize)
+}
+
+/// The plan bytes that QEMU's loader placed in the mailbox, if a valid descriptor is present.
+#[cfg(target_os = "none")]
+pub fn plan() -> Option<&'static [u8]> {
+    let desc = PLAN_DESC_ADDR as *const u32;
+    // SAFETY: fixed addresses in the mailbox page outside the image (see link.x).
+    let (magic, len) = unsafe { (desc.read_volatile(), desc.add(1).read_volatile()) };
+    let len = plan_len_from_descriptor(magic, len)?;
+    Some(unsafe { core::slice::from_raw_parts(PLAN_BYTES_ADDR as *const u8, len) })
+}
+
 /// Address of the self-test descriptor: `u32` magic [`SELFTEST_MAGIC`], then `u32` request
 /// (see [`SelfTest`]). Written by `scripts/run-qemu.sh --selftest <name>` to check that every
 /// failure path ends QEMU with the right exit code.
@@ -26,7 +50,7 @@ pub const SELFTEST_DESC_ADDR: usize = 0x03FF_FFE0;
 /// "TEST" as a little-endian `u32`.
 pub const SELFTEST_MAGIC: u32 = u32::from_le_bytes(*b"TEST");
 
-/// Failure paths the firmware can be asked to take instead of running the demo.
+/// Failure paths the firmware can be asked to take instead of its work.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SelfTest {
     /// `panic!` -> panic handler -> QEMU exit code 101.
@@ -65,6 +89,7 @@ pub fn selftest() -> Option<SelfTest> {
     }
 }
 
+const _: () = assert!(RAM_END <= PLAN_DESC_ADDR && PLAN_BYTES_ADDR + 64 <= SELFTEST_DESC_ADDR);
 const _: () = assert!(
     RAM_END <= SELFTEST_DESC_ADDR && SELFTEST_DESC_ADDR + 8 <= crate::icount::ICOUNT_DESC_ADDR
 );
@@ -101,6 +126,14 @@ mod tests {
         assert_eq!(SelfTest::from_word(0x100 + 7), Some(SelfTest::Exit(7)));
         assert_eq!(SelfTest::from_word(0x100), None);
         assert_eq!(SelfTest::from_word(0), None);
+    }
+
+    #[test]
+    fn plan_descriptor() {
+        assert_eq!(PLAN_MAGIC, 0x4E41_4C50);
+        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 64), Some(64));
+        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 63), None);
+        assert_eq!(plan_len_from_descriptor(INPUT_MAGIC, 64), None);
     }
 
     #[test]

@@ -1,24 +1,44 @@
-//! The firmware image (bare metal) / the same demo as a host program.
+//! The firmware image (bare metal) / the camera emulator and cross-check tools (host).
 //!
-//! Bare metal: `_start` (src/arm/start.rs) calls `fw_main`, which runs the bring-up demo,
-//! prints a `RESULT ...` line over semihosting, writes and reads back the host file
-//! `fw-out.bin` (in QEMU's working directory), checksums the input placed in RAM by
-//! scripts/run-qemu.sh, and exits 0 (or panics: QEMU exit code 101).
-//! Host: prints the same `RESULT ...` line, so the two can be compared.
+//! Bare metal: `_start` (src/arm/start.rs) calls `fw_main`, which looks at the input QEMU's
+//! loader placed in RAM (scripts/run-qemu.sh):
+//! - a row dump (with the plan in its mailbox: `run-qemu.sh --plan PLAN ELF DUMP`): decode
+//!   every row and write the candidate file `fw-candidates.bin`; under `--icount` also print
+//!   exact instruction counts (`BENCH ...`);
+//! - anything else is a recorded stream of request frames (a host session): serve it with the
+//!   protocol device loop and write every response frame to `fw-link.bin`;
+//! - no input: print the limits and exit 0.
+//!
+//! Output files are written under a `.part` name and renamed when whole.
+//!
+//! Host: `fsm-firmware <command>`, see `usage()`.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
 mod fw {
-    use core::hint::black_box;
+    use core::fmt;
+    use core::ptr::addr_of_mut;
 
-    use fsm_firmware::arm::cpu::{cycles, global_timer_ticks};
-    use fsm_firmware::arm::semihosting::{exit, File, Mode};
-    use fsm_firmware::demo::{self, OutputRecord, N, OUTPUT_LEN};
-    use fsm_firmware::layout::SelfTest;
-    use fsm_firmware::{hprintln, icount, layout};
+    use fsm_core::{Method, ScanPlan};
+    use fsm_firmware::arm::cpu::global_timer_ticks;
+    use fsm_firmware::arm::semihosting::{self, exit, File, Mode};
+    use fsm_firmware::batch::{self, BatchMemory, Sink};
+    use fsm_firmware::device::{Device, Replay};
+    use fsm_firmware::layout::{self, SelfTest};
+    use fsm_firmware::limits::{self, Pixel};
+    use fsm_firmware::memory::Storage;
+    use fsm_firmware::scan::{NoProbe, Probe, RowBuffers};
+    use fsm_firmware::{hprintln, icount};
 
-    /// Host file the demo writes (relative to QEMU's working directory).
-    const OUT_PATH: &str = "fw-out.bin";
+    /// Candidate file written in QEMU's working directory.
+    const OUT_PATH: &str = "fw-candidates.bin";
+    /// Its name while being written.
+    const PART_PATH: &str = "fw-candidates.bin.part";
+    /// Exit code for input the firmware refuses (bad plan, bad dump).
+    const EXIT_BAD_INPUT: u8 = 3;
+
+    /// Every buffer of the camera, in .bss.
+    static mut STORAGE: Storage = Storage::new();
 
     /// Take a failure path on request (scripts/run-qemu.sh --selftest ...).
     fn selftest(t: SelfTest) -> ! {
@@ -38,149 +58,347 @@ mod fw {
         }
     }
 
+    /// The semihosting file as the batch output.
+    struct FileSink(File);
+
+    impl Sink for FileSink {
+        type Error = semihosting::Error;
+        fn write(&mut self, bytes: &[u8]) -> Result<(), Self::Error> {
+            self.0.write_all(bytes)
+        }
+    }
+
+    /// A short description of a plan for the log.
+    struct PlanName<'a>(&'a ScanPlan);
+
+    impl fmt::Display for PlanName<'_> {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            let p = self.0;
+            match p.method {
+                Method::Bfsm => write!(f, "bfsm")?,
+                Method::Efsm(b) => write!(f, "efsm-cB{}-groups{}", b.block_width, p.group_count())?,
+            }
+            write!(
+                f,
+                " cmax={} M={} N={} frames={}",
+                p.projector_columns,
+                p.band.count,
+                p.transform_size,
+                p.sequence_len()
+            )
+        }
+    }
+
+    /// Instructions since start-up (exact under -icount shift >= 4).
+    fn instructions(shift: u32) -> u64 {
+        icount::instructions_from_gtimer_ticks(global_timer_ticks(), shift)
+    }
+
+    /// Instruction counts of the table build and of each row (whole loop: unpack,
+    /// decode_row, encode, write).
+    struct RowClock {
+        shift: u32,
+        last: u64,
+        tables: u64,
+        sum: u64,
+        min: u64,
+        max: u64,
+    }
+
+    impl Probe for RowClock {
+        const PER_PIXEL: bool = false;
+        fn tables_built(&mut self) {
+            self.tables = instructions(self.shift) - self.last;
+            self.last = instructions(self.shift);
+        }
+        fn end_row(&mut self, _row: u32, _len: usize) {
+            let n = instructions(self.shift) - self.last;
+            self.sum += n;
+            self.min = self.min.min(n);
+            self.max = self.max.max(n);
+            self.last = instructions(self.shift);
+        }
+    }
+
+    /// Instruction counts of each pixel's decode, by the number of candidates it got.
+    struct PixelClock {
+        shift: u32,
+        overhead: u64,
+        start: u64,
+        count: [u64; 4],
+        sum: [u64; 4],
+        min: [u64; 4],
+        max: [u64; 4],
+    }
+
+    impl Probe for PixelClock {
+        const PER_PIXEL: bool = true;
+        #[inline(always)]
+        fn before(&mut self, _x: usize) {
+            self.start = instructions(self.shift);
+        }
+        #[inline(always)]
+        fn after(&mut self, _x: usize, pixel: &Pixel) {
+            let n = instructions(self.shift) - self.start - self.overhead;
+            let c = pixel.candidates.len().min(3);
+            self.count[c] += 1;
+            self.sum[c] += n;
+            self.min[c] = self.min[c].min(n);
+            self.max[c] = self.max[c].max(n);
+        }
+    }
+
+    fn memory(storage: &mut Storage) -> BatchMemory<'_> {
+        let m = storage.memory();
+        BatchMemory {
+            tables: m.tables,
+            row: RowBuffers {
+                scratch: m.scratch,
+                samples: m.samples,
+                pixels: m.pixels,
+            },
+            record: m.record,
+        }
+    }
+
+    /// Scans the dump into `path`; returns rows and bytes or exits with a message.
+    fn scan_to<P: Probe>(
+        plan: &ScanPlan,
+        dump: &[u8],
+        storage: &mut Storage,
+        path: &str,
+        probe: &mut P,
+    ) -> batch::BatchSummary {
+        let file = match File::open(path, Mode::Write) {
+            Ok(f) => f,
+            Err(e) => panic!("open {} for writing: errno {}", path, e.errno),
+        };
+        let mut sink = FileSink(file);
+        match batch::scan_dump(plan, dump, memory(storage), &mut sink, probe) {
+            Ok(s) => s,
+            Err(e) => {
+                drop(sink);
+                let _ = semihosting::remove(path);
+                hprintln!("ERROR: {}", e);
+                exit(EXIT_BAD_INPUT)
+            }
+        }
+    }
+
+    fn run_dump(plan: &ScanPlan, dump: &[u8], storage: &mut Storage, shift: Option<u32>) -> ! {
+        hprintln!(
+            "PLAN {} fingerprint={:016x}",
+            PlanName(plan),
+            plan.fingerprint()
+        );
+        #[cfg(feature = "defmt")]
+        defmt::info!(
+            "plan {=u64:#018x} accepted, {=usize} frames per row",
+            plan.fingerprint(),
+            plan.sequence_len()
+        );
+        let summary = match shift {
+            None => scan_to(plan, dump, storage, PART_PATH, &mut NoProbe),
+            Some(shift) => {
+                let mut clock = RowClock {
+                    shift,
+                    last: instructions(shift),
+                    tables: 0,
+                    sum: 0,
+                    min: u64::MAX,
+                    max: 0,
+                };
+                let s = scan_to(plan, dump, storage, PART_PATH, &mut clock);
+                let pixels = s.rows as u64 * s.dump.width as u64;
+                hprintln!(
+                    "BENCH tables instructions={} (Decoder::new: the plan's tables, once per plan)",
+                    clock.tables
+                );
+                hprintln!(
+                    "BENCH loop rows={} width={} pixels={} instructions={} per_pixel={} per_row_min={} per_row_max={}",
+                    s.rows,
+                    s.dump.width,
+                    pixels,
+                    clock.sum,
+                    clock.sum / pixels.max(1),
+                    clock.min,
+                    clock.max
+                );
+                s
+            }
+        };
+        if let Err(e) = semihosting::rename(PART_PATH, OUT_PATH) {
+            panic!("rename {} to {}: errno {}", PART_PATH, OUT_PATH, e.errno);
+        }
+        hprintln!(
+            "CANDIDATES {} rows={} width={} bytes={}",
+            OUT_PATH,
+            summary.rows,
+            summary.dump.width,
+            summary.bytes
+        );
+        #[cfg(feature = "defmt")]
+        defmt::info!(
+            "decoded {=u32} rows of {=u32} pixels: {=u64} bytes of candidates",
+            summary.rows,
+            summary.dump.width,
+            summary.bytes
+        );
+
+        if let Some(shift) = shift {
+            // Second pass, pixel by pixel, for the cost of each kind of pixel. Its output must
+            // be the same file (checked by the scripts).
+            let (a, b) = (instructions(shift), instructions(shift));
+            let mut clock = PixelClock {
+                shift,
+                overhead: b - a,
+                start: 0,
+                count: [0; 4],
+                sum: [0; 4],
+                min: [u64::MAX; 4],
+                max: [0; 4],
+            };
+            scan_to(
+                plan,
+                dump,
+                storage,
+                "fw-candidates-per-pixel.bin",
+                &mut clock,
+            );
+            let names = ["0", "1", "2", "3+"];
+            let (mut n, mut sum) = (0, 0);
+            for c in 0..4 {
+                n += clock.count[c];
+                sum += clock.sum[c];
+                if clock.count[c] > 0 {
+                    hprintln!(
+                        "BENCH pixels candidates={} pixels={} decode_per_pixel={} min={} max={}",
+                        names[c],
+                        clock.count[c],
+                        clock.sum[c] / clock.count[c],
+                        clock.min[c],
+                        clock.max[c]
+                    );
+                }
+            }
+            hprintln!(
+                "BENCH pixels candidates=all pixels={} decode_per_pixel={} (timer overhead {} subtracted)",
+                n,
+                sum / n.max(1),
+                clock.overhead
+            );
+        }
+        exit(0)
+    }
+
+    /// Serves a recorded request stream; the responses go to `fw-link.bin`.
+    fn run_session(requests: &[u8], storage: &mut Storage) -> ! {
+        const LINK_PART: &str = "fw-link.bin.part";
+        const LINK_PATH: &str = "fw-link.bin";
+        let file = match File::open(LINK_PART, Mode::Write) {
+            Ok(f) => f,
+            Err(e) => panic!("open {} for writing: errno {}", LINK_PART, e.errno),
+        };
+        let mut device = Device::new(storage.memory());
+        let mut link = Replay::new(requests, FileSink(file));
+        match device.serve(&mut link) {
+            Ok(r) => {
+                drop(link);
+                if let Err(e) = semihosting::rename(LINK_PART, LINK_PATH) {
+                    panic!("rename {} to {}: errno {}", LINK_PART, LINK_PATH, e.errno);
+                }
+                hprintln!(
+                    "SESSION {} requests={} rows={} errors={}",
+                    LINK_PATH,
+                    r.requests,
+                    r.rows,
+                    r.errors
+                );
+                #[cfg(feature = "defmt")]
+                defmt::info!(
+                    "session: {=u32} requests, {=u32} rows, {=u32} refused",
+                    r.requests,
+                    r.rows,
+                    r.errors
+                );
+                exit(0)
+            }
+            Err(e) => {
+                drop(link);
+                let _ = semihosting::remove(LINK_PART);
+                panic!("writing {}: errno {}", LINK_PART, e.errno)
+            }
+        }
+    }
+
     #[no_mangle]
     pub extern "C" fn fw_main() -> ! {
         hprintln!(
-            "fsm-firmware {} (armv7a-none-eabihf, Cortex-A9)",
-            env!("CARGO_PKG_VERSION")
+            "fsm-firmware {} (armv7a-none-eabihf, Cortex-A9): buffers {} bytes, rows up to {} pixels / {} samples, {} candidates per pixel",
+            env!("CARGO_PKG_VERSION"),
+            fsm_firmware::memory::MEMORY_BYTES,
+            limits::MAX_WIDTH,
+            limits::MAX_ROW_SAMPLES,
+            limits::CANDIDATE_CAPACITY
         );
         if let Some(t) = layout::selftest() {
             selftest(t);
         }
         let shift = icount::shift();
-
-        let mut buf = [0.0f32; N];
-        demo::synth(&mut buf);
-        black_box(&mut buf);
-
-        // Cost of the measurement itself (back-to-back reads), subtracted below.
-        let (o0, p0) = (global_timer_ticks(), cycles());
-        let (o1, p1) = (global_timer_ticks(), cycles());
-
-        let (t0, c0) = (global_timer_ticks(), cycles());
-        let spec = demo::rfft(&mut buf);
-        let (t1, c1) = (global_timer_ticks(), cycles());
-        let spec = black_box(spec);
-
-        let fft_instructions = match shift {
-            Some(s) => {
-                let ins = |t| icount::instructions_from_gtimer_ticks(t, s);
-                let n = (ins(t1) - ins(t0)) - (ins(o1) - ins(o0));
-                hprintln!(
-                    "ICOUNT shift={} rfft_1024 instructions={} ({}; measurement overhead {} subtracted)",
-                    s,
-                    n,
-                    if s >= icount::EXACT_SHIFT { "exact" } else { "approximate: use shift>=4" },
-                    ins(o1) - ins(o0)
-                );
-                n as u32
-            }
-            None => {
-                hprintln!(
-                    "TIMER rfft_1024 gtimer_ticks={} (QEMU without --icount: follows host time, not reproducible)",
-                    (t1 - t0) - (o1 - o0)
-                );
-                0
-            }
-        };
-        let pmu = c1.wrapping_sub(c0).wrapping_sub(p1.wrapping_sub(p0));
-        if pmu != 0 {
-            // Real silicon only: QEMU's cortex-a9 has no PMU.
-            hprintln!("CYCLES rfft_1024={}", pmu);
-        }
-
-        let report = demo::analyse(spec);
-        let libm = demo::libm_report();
-        hprintln!("{}", demo::result_line(&report, &libm));
-        #[cfg(feature = "defmt")]
-        {
-            let p = report.peaks[0];
-            defmt::info!(
-                "rfft_1024: peak bin {=u16} mag {=f32} phase {=f32}",
-                p.bin,
-                p.mag,
-                p.phase
-            );
-            defmt::info!(
-                "rfft_1024: {=u32} instructions (0 = not under --icount)",
-                fft_instructions
-            );
-        }
-        if let Err(e) = demo::check(&report) {
-            panic!("FFT check failed: {}", e);
-        }
-
-        let (input_len, input_crc) = match layout::input() {
-            Some(data) => {
-                let crc = demo::crc32(data);
-                let head = &data[..data.len().min(8)];
-                hprintln!(
-                    "INPUT len={} crc32={:08x} head={:02x?}",
-                    data.len(),
-                    crc,
-                    head
-                );
-                #[cfg(feature = "defmt")]
-                defmt::info!("input: {=usize} bytes, crc32 {=u32:#010x}", data.len(), crc);
-                (data.len() as u32, crc)
-            }
-            None => {
-                hprintln!(
-                    "INPUT none (no descriptor at {:#010x})",
-                    layout::INPUT_DESC_ADDR
-                );
-                (0, 0)
-            }
-        };
-
-        let record = OutputRecord {
-            peak_bin: report.peaks[0].bin as u32,
-            peak_mag: report.peaks[0].mag,
-            peak_phase: report.peaks[0].phase,
-            input_len,
-            input_crc,
-            fft_instructions,
-        };
-        let bytes = record.encode();
-        match File::open(OUT_PATH, Mode::Write) {
-            Ok(mut f) => f.write_all(&bytes).expect("write fw-out.bin"),
-            Err(e) => panic!("open {} for writing: errno {}", OUT_PATH, e.errno),
-        }
-        // Read it back through semihosting too.
-        let mut back = [0u8; OUTPUT_LEN];
-        {
-            let mut f = File::open(OUT_PATH, Mode::Read).expect("open fw-out.bin for reading");
-            assert_eq!(f.len(), Ok(OUTPUT_LEN), "fw-out.bin length");
-            f.read_exact(&mut back).expect("read fw-out.bin");
-        }
-        assert_eq!(back, bytes, "fw-out.bin read back differs");
-        hprintln!(
-            "FILE {} {} bytes written and read back",
-            OUT_PATH,
-            OUTPUT_LEN
-        );
-
         if let Some(s) = shift {
-            // The global timer was started in fsm_fw_init, just before fw_main.
-            let total = icount::instructions_from_gtimer_ticks(global_timer_ticks(), s);
-            hprintln!("ICOUNT total instructions since start-up={}", total);
+            hprintln!(
+                "ICOUNT shift={} ({})",
+                s,
+                if s >= icount::EXACT_SHIFT {
+                    "exact"
+                } else {
+                    "approximate: use shift>=4"
+                }
+            );
         }
-        #[cfg(feature = "defmt")]
-        defmt::info!("done");
-        exit(0)
+        // SAFETY: the only reference to STORAGE, taken once.
+        let storage: &'static mut Storage = unsafe { &mut *addr_of_mut!(STORAGE) };
+        let is_dump = |input: &[u8]| input.starts_with(&fsm_core::wire::row_dump::MAGIC);
+        match (layout::input(), layout::plan()) {
+            (Some(requests), None) if !is_dump(requests) => {
+                hprintln!("INPUT request frames, {} bytes", requests.len());
+                run_session(requests, storage)
+            }
+            (Some(dump), Some(plan_bytes)) if is_dump(dump) => {
+                hprintln!("INPUT row dump, {} bytes", dump.len());
+                match ScanPlan::from_bytes(plan_bytes) {
+                    Ok(plan) => run_dump(&plan, dump, storage, shift),
+                    Err(e) => {
+                        hprintln!("ERROR: plan mailbox: {}", e);
+                        exit(EXIT_BAD_INPUT)
+                    }
+                }
+            }
+            (Some(_), None) => {
+                hprintln!(
+                    "ERROR: a row dump without a plan (put the plan's 64 bytes in the mailbox at {:#010x}: run-qemu.sh --plan)",
+                    layout::PLAN_DESC_ADDR
+                );
+                exit(EXIT_BAD_INPUT)
+            }
+            (Some(_), Some(_)) => {
+                hprintln!(
+                    "ERROR: a plan in the mailbox, but the input is no row dump (magic FSMROWS)"
+                );
+                exit(EXIT_BAD_INPUT)
+            }
+            (None, _) => {
+                hprintln!("INPUT none: nothing to decode");
+                exit(0)
+            }
+        }
     }
 }
 
 #[cfg(not(target_os = "none"))]
-fn main() {
-    use fsm_firmware::demo;
+mod cli;
 
-    let mut buf = [0.0f32; demo::N];
-    demo::synth(&mut buf);
-    let report = demo::analyse(demo::rfft(&mut buf));
-    println!("{}", demo::result_line(&report, &demo::libm_report()));
-    if let Err(e) = demo::check(&report) {
-        eprintln!("FFT check failed: {e}");
-        std::process::exit(1);
-    }
+#[cfg(not(target_os = "none"))]
+fn main() {
+    std::process::exit(cli::main(std::env::args().skip(1).collect()));
 }

@@ -25,6 +25,8 @@ pub mod op {
     pub const SYS_WRITEC: u32 = 0x03;
     pub const SYS_WRITE0: u32 = 0x04;
     pub const SYS_WRITE: u32 = 0x05;
+    pub const SYS_REMOVE: u32 = 0x0E;
+    pub const SYS_RENAME: u32 = 0x0F;
     pub const SYS_READ: u32 = 0x06;
     pub const SYS_SEEK: u32 = 0x0A;
     pub const SYS_FLEN: u32 = 0x0C;
@@ -240,6 +242,43 @@ impl Drop for File {
     fn drop(&mut self) {
         let block: [usize; 1] = [self.handle as usize];
         unsafe { call(op::SYS_CLOSE, block.as_ptr() as usize) };
+    }
+}
+
+/// A host path with a NUL added, for the calls that take one.
+fn c_path(path: &str) -> Result<[u8; MAX_PATH + 1], Error> {
+    if path.len() > MAX_PATH || path.as_bytes().contains(&0) {
+        return Err(Error { errno: 36 });
+    }
+    let mut name = [0u8; MAX_PATH + 1];
+    name[..path.len()].copy_from_slice(path.as_bytes());
+    Ok(name)
+}
+
+/// Renames host file `from` to `to` (relative to QEMU's working directory), replacing `to`.
+pub fn rename(from: &str, to: &str) -> Result<(), Error> {
+    let (a, b) = (c_path(from)?, c_path(to)?);
+    let block: [usize; 4] = [
+        a.as_ptr() as usize,
+        from.len(),
+        b.as_ptr() as usize,
+        to.len(),
+    ];
+    if unsafe { call(op::SYS_RENAME, block.as_ptr() as usize) } == 0 {
+        Ok(())
+    } else {
+        Err(Error::last())
+    }
+}
+
+/// Deletes host file `path`.
+pub fn remove(path: &str) -> Result<(), Error> {
+    let name = c_path(path)?;
+    let block: [usize; 2] = [name.as_ptr() as usize, path.len()];
+    if unsafe { call(op::SYS_REMOVE, block.as_ptr() as usize) } == 0 {
+        Ok(())
+    } else {
+        Err(Error::last())
     }
 }
 

@@ -1,0 +1,116 @@
+#!/usr/bin/env bash
+# The firmware cross-check: the candidate rows the Cortex-A9 firmware computes under QEMU must be
+# bit-identical to the host's decode of the same row dump (fsm-core on x86_64), whole files
+# (header + records) compared byte for byte, for a BFSM plan and a two-group EFSM plan, on a
+# scene with interreflections. Twice per plan:
+#   1. replay: the row dump placed in RAM, the plan in its mailbox -> fw-candidates.bin;
+#   2. protocol: a recorded host session placed in RAM (plan upload, scan, every row, with one
+#      of each kind of bad input first) served by the device loop -> fw-link.bin, whose
+#      answers must be the expected ones (an error for each bad input) and whose candidate
+#      rows must again equal the host's.
+#
+# Usage: scripts/crosscheck-arm.sh [--rows N] [--width W] [--keep DIR]
+#   --rows N    rows per dump (default 32)
+#   --width W   pixels per row (default 48; QEMU needs ~2 s per 1500 BFSM pixels)
+#   --keep DIR  keep dumps, plans and candidate files in DIR (default: a temporary directory)
+# Environment:
+#   FW_ELF             firmware ELF to run (default: build it with scripts/build-arm.sh)
+#   FW_DUMP_<P>, FW_PLAN_<P>   for P in BFSM, EFSM2: use this row dump and 64-byte plan file
+#                      instead of rendering the built-in mirror scene (e.g. the simulator's
+#                      plane_mirror dump)
+#   QEMU_TIMEOUT       seconds per QEMU run (default 300)
+# Prints one line per check and ends with `N passed, M failed`; exit status 0 iff all passed.
+set -euo pipefail
+
+FW_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+S="$FW_DIR/scripts"
+ROWS=32
+WIDTH=48
+KEEP=""
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --rows) ROWS="$2"; shift ;;
+        --width) WIDTH="$2"; shift ;;
+        --keep) KEEP="$2"; shift ;;
+        *) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2 ;;
+    esac
+    shift
+done
+
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); echo "ok   - $*"; }
+bad() { fail=$((fail + 1)); echo "FAIL - $*"; }
+
+if [ -n "$KEEP" ]; then
+    mkdir -p "$KEEP"
+    WORK="$(cd "$KEEP" && pwd)"
+else
+    WORK="$(mktemp -d)"
+    trap 'rm -rf "$WORK"' EXIT
+fi
+
+# The host tools (scene, decode, compare): rustup's cargo, the workspace's own target dir.
+HOST_CARGO="$(command -v cargo)"
+case "$HOST_CARGO" in /usr/bin/cargo) [ -x "$HOME/.cargo/bin/cargo" ] && HOST_CARGO="$HOME/.cargo/bin/cargo" ;; esac
+"$HOST_CARGO" build -q --release --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
+TARGET_DIR="$("$HOST_CARGO" metadata --format-version 1 --no-deps --manifest-path "$FW_DIR/Cargo.toml" \
+    | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')"
+TOOL="$TARGET_DIR/release/fsm-firmware"
+
+if [ -z "${FW_ELF:-}" ]; then
+    "$S/build-arm.sh" >"$WORK/build.log" 2>&1 || { cat "$WORK/build.log"; bad "build-arm.sh"; echo "$pass passed, $fail failed"; exit 1; }
+    grep -A1 '^ *text' "$WORK/build.log"
+    FW_ELF="$(sed -n 's/^FW_ELF=//p' "$WORK/build.log" | tail -n1)"
+fi
+cp "$FW_ELF" "$WORK/fsm-firmware.elf"
+ELF="$WORK/fsm-firmware.elf"
+
+cd "$WORK"
+for P in BFSM EFSM2; do
+    p="$(echo "$P" | tr 'A-Z' 'a-z')"
+    dump_var="FW_DUMP_$P"
+    plan_var="FW_PLAN_$P"
+    if [ -n "${!dump_var:-}" ]; then
+        cp "${!dump_var}" "$p.dump"
+        cp "${!plan_var:?$plan_var must name the 64-byte plan file of the dump}" "$p.plan"
+        echo "$p: dump ${!dump_var}"
+    else
+        "$TOOL" scene --plan "$p" --width "$WIDTH" --rows "$ROWS" --dump "$p.dump" --plan-out "$p.plan"
+    fi
+    "$TOOL" decode --plan "$p.plan" --dump "$p.dump" --out "$p.host.cand"
+    rm -f fw-candidates.bin
+    set +e
+    QEMU_TIMEOUT="${QEMU_TIMEOUT:-300}" "$S/run-qemu.sh" --plan "$p.plan" "$ELF" "$p.dump" >"$p.qemu.txt" 2>&1
+    rc=$?
+    set -e
+    cat "$p.qemu.txt"
+    if [ "$rc" != 0 ] || [ ! -f fw-candidates.bin ]; then
+        bad "$p: firmware exit code $rc, no candidate file"
+        continue
+    fi
+    mv fw-candidates.bin "$p.fw.cand"
+    if "$TOOL" compare "$p.host.cand" "$p.fw.cand"; then
+        ok "$p: firmware (Cortex-A9, QEMU) and host (x86_64) candidates bit-identical ($(stat -c %s "$p.fw.cand") bytes)"
+    else
+        bad "$p: firmware and host candidates differ"
+    fi
+
+    "$TOOL" session --plan "$p.plan" --dump "$p.dump" --out "$p.requests" --bad-input yes
+    rm -f fw-link.bin
+    set +e
+    QEMU_TIMEOUT="${QEMU_TIMEOUT:-300}" "$S/run-qemu.sh" "$ELF" "$p.requests" >"$p.session.txt" 2>&1
+    rc=$?
+    set -e
+    cat "$p.session.txt"
+    if [ "$rc" = 0 ] && [ -f fw-link.bin ] \
+        && "$TOOL" replies --plan "$p.plan" --dump "$p.dump" --in fw-link.bin --out "$p.link.cand" --bad-input yes \
+        && "$TOOL" compare "$p.host.cand" "$p.link.cand"; then
+        ok "$p: protocol session on the Cortex-A9: 5 bad inputs refused with errors, then candidates bit-identical"
+    else
+        bad "$p: protocol session (firmware exit code $rc)"
+    fi
+done
+
+echo "$pass passed, $fail failed"
+[ "$fail" = 0 ]

@@ -1,0 +1,299 @@
+//! The host build of the firmware binary: the camera emulator and the cross-check tools.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use fsm_core::{GroupCount, ScanPlan};
+use fsm_firmware::batch::{self, BatchMemory};
+use fsm_firmware::emulator;
+use fsm_firmware::limits;
+use fsm_firmware::memory::HostStorage;
+use fsm_firmware::reference;
+use fsm_firmware::scan::{NoProbe, RowBuffers};
+use fsm_firmware::scene::MirrorScene;
+use fsm_firmware::session;
+
+fn usage() -> &'static str {
+    "usage: fsm-firmware <command> [options]
+
+commands (PLAN is bfsm, efsm1, efsm2, or a 64-byte plan file written by `scene --plan-out`):
+  scene --plan PLAN --width W --rows H --dump OUT [--plan-out FILE]
+        render the mirror scene (interreflections) as a row dump
+  decode --plan PLAN --dump DUMP --out CANDIDATES
+        the host's decode of a dump with fsm-core (what `fsm decode` writes)
+  batch --plan PLAN --dump DUMP --out CANDIDATES
+        the firmware's replay loop, run on the host
+  session --plan PLAN --dump DUMP --out REQUESTS [--bad-input yes]
+        record the request frames of a session that scans DUMP (optionally with one of each
+        kind of bad input first), for replay by the firmware under QEMU
+  replies --plan PLAN --dump DUMP --in RESPONSES --out CANDIDATES [--bad-input yes]
+        check the camera's recorded answers to that session; write the candidates they carry
+  compare EXPECTED ACTUAL
+        byte-compare two candidate files; on a difference, name its row and pixel (exit 1)
+  serve [--listen ADDR]
+        the camera emulator on TCP (default 127.0.0.1:7070)
+  info  the camera's limits and memory"
+}
+
+/// Runs a command; returns the process exit code.
+pub fn main(args: Vec<String>) -> i32 {
+    match run(&args) {
+        Ok(()) => 0,
+        Err(Failure::Usage(msg)) => {
+            eprintln!("fsm-firmware: {msg}\n\n{}", usage());
+            2
+        }
+        Err(Failure::Error(msg)) => {
+            eprintln!("fsm-firmware: {msg}");
+            1
+        }
+    }
+}
+
+enum Failure {
+    Usage(String),
+    Error(String),
+}
+
+fn err(msg: impl Into<String>) -> Failure {
+    Failure::Error(msg.into())
+}
+
+/// `--name value` options after the command.
+struct Options<'a> {
+    pairs: Vec<(&'a str, &'a str)>,
+    free: Vec<&'a str>,
+}
+
+impl<'a> Options<'a> {
+    fn parse(args: &'a [String]) -> Result<Self, Failure> {
+        let (mut pairs, mut free) = (Vec::new(), Vec::new());
+        let mut it = args.iter();
+        while let Some(a) = it.next() {
+            if let Some(name) = a.strip_prefix("--") {
+                let v = it
+                    .next()
+                    .ok_or_else(|| Failure::Usage(format!("--{name} needs a value")))?;
+                pairs.push((name, v.as_str()));
+            } else {
+                free.push(a.as_str());
+            }
+        }
+        Ok(Options { pairs, free })
+    }
+
+    fn get(&self, name: &str) -> Option<&'a str> {
+        self.pairs.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)
+    }
+
+    fn need(&self, name: &str) -> Result<&'a str, Failure> {
+        self.get(name)
+            .ok_or_else(|| Failure::Usage(format!("--{name} is required")))
+    }
+
+    fn number(&self, name: &str) -> Result<u32, Failure> {
+        let v = self.need(name)?;
+        v.parse()
+            .map_err(|_| Failure::Usage(format!("--{name} {v}: not a number")))
+    }
+
+    fn only(&self, names: &[&str], free: usize) -> Result<(), Failure> {
+        if let Some((n, _)) = self.pairs.iter().find(|(n, _)| !names.contains(n)) {
+            return Err(Failure::Usage(format!("unknown option --{n}")));
+        }
+        if self.free.len() != free {
+            return Err(Failure::Usage(format!(
+                "{} arguments given, {free} expected",
+                self.free.len()
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A preset name or a 64-byte plan file.
+fn plan(spec: &str) -> Result<ScanPlan, Failure> {
+    match spec {
+        "bfsm" => Ok(ScanPlan::paper_bfsm()),
+        "efsm1" => Ok(ScanPlan::paper_efsm(GroupCount::One)),
+        "efsm2" => Ok(ScanPlan::paper_efsm(GroupCount::Two)),
+        path => {
+            let bytes = fs::read(path).map_err(|e| err(format!("plan {path}: {e}")))?;
+            if bytes.len() != fsm_core::wire::plan::PLAN_LEN {
+                return Err(err(format!(
+                    "plan {path}: {} bytes, a plan file holds the 64 canonical bytes",
+                    bytes.len()
+                )));
+            }
+            ScanPlan::from_bytes(&bytes).map_err(|e| err(format!("plan {path}: {e}")))
+        }
+    }
+}
+
+fn read(path: &str) -> Result<Vec<u8>, Failure> {
+    fs::read(path).map_err(|e| err(format!("{path}: {e}")))
+}
+
+/// Writes `bytes` to `path` whole or not at all (a `.part` file renamed when complete).
+fn write(path: &str, bytes: &[u8]) -> Result<(), Failure> {
+    let target = Path::new(path);
+    let mut name = target.file_name().unwrap_or_default().to_os_string();
+    name.push(".part");
+    let tmp: PathBuf = target.with_file_name(name);
+    fs::write(&tmp, bytes)
+        .and_then(|_| fs::rename(&tmp, target))
+        .map_err(|e| {
+            let _ = fs::remove_file(&tmp);
+            err(format!("{path}: {e}"))
+        })
+}
+
+fn run(args: &[String]) -> Result<(), Failure> {
+    let Some((command, rest)) = args.split_first() else {
+        return Err(Failure::Usage("no command".into()));
+    };
+    if matches!(command.as_str(), "help" | "--help" | "-h") {
+        println!("{}", usage());
+        return Ok(());
+    }
+    let o = Options::parse(rest)?;
+    match command.as_str() {
+        "scene" => {
+            o.only(&["plan", "width", "rows", "dump", "plan-out"], 0)?;
+            let plan = plan(o.need("plan")?)?;
+            let (width, rows) = (o.number("width")?, o.number("rows")?);
+            if width == 0 || rows == 0 {
+                return Err(Failure::Usage("--width and --rows must be positive".into()));
+            }
+            let scene = MirrorScene::for_plan(&plan, width, rows);
+            write(o.need("dump")?, &scene.dump(&plan))?;
+            if let Some(p) = o.get("plan-out") {
+                write(p, &plan.to_bytes())?;
+            }
+            println!(
+                "scene: {width} x {rows} pixels, {} frames per row, plan {:016x}",
+                plan.sequence_len(),
+                plan.fingerprint()
+            );
+            Ok(())
+        }
+        "decode" | "batch" => {
+            o.only(&["plan", "dump", "out"], 0)?;
+            let plan = plan(o.need("plan")?)?;
+            let dump_path = o.need("dump")?;
+            let dump = read(dump_path)?;
+            let out = if command == "decode" {
+                reference::decode_dump(&plan, &dump)
+                    .map_err(|e| err(format!("{dump_path}: {e}")))?
+            } else {
+                let mut storage = HostStorage::default();
+                let m = storage.memory();
+                let memory = BatchMemory {
+                    tables: m.tables,
+                    row: RowBuffers {
+                        scratch: m.scratch,
+                        samples: m.samples,
+                        pixels: m.pixels,
+                    },
+                    record: m.record,
+                };
+                let mut out = Vec::new();
+                batch::scan_dump(&plan, &dump, memory, &mut out, &mut NoProbe)
+                    .map_err(|e| err(format!("{dump_path}: {e}")))?;
+                out
+            };
+            let census = reference::census(&out).map_err(|e| err(e.to_string()))?;
+            write(o.need("out")?, &out)?;
+            println!("{command}: {census}");
+            Ok(())
+        }
+        "session" | "replies" => {
+            let names: &[&str] = if command == "session" {
+                &["plan", "dump", "out", "bad-input"]
+            } else {
+                &["plan", "dump", "in", "out", "bad-input"]
+            };
+            o.only(names, 0)?;
+            let plan = plan(o.need("plan")?)?;
+            let dump_path = o.need("dump")?;
+            let dump = read(dump_path)?;
+            let bad = match o.get("bad-input") {
+                None | Some("no") => false,
+                Some("yes") => true,
+                Some(v) => return Err(Failure::Usage(format!("--bad-input {v}: yes or no"))),
+            };
+            let script =
+                session::script(&plan, &dump, bad).map_err(|e| err(format!("{dump_path}: {e}")))?;
+            if command == "session" {
+                write(o.need("out")?, &script.requests)?;
+                println!(
+                    "session: {} requests, {} bytes",
+                    script.expect.len(),
+                    script.requests.len()
+                );
+            } else {
+                let path = o.need("in")?;
+                let candidates = session::check_replies(&script, &read(path)?)
+                    .map_err(|e| err(format!("{path}: {e}")))?;
+                write(o.need("out")?, &candidates)?;
+                println!(
+                    "replies: all {} answers as expected; {}",
+                    script.expect.len(),
+                    reference::census(&candidates).map_err(|e| err(e.to_string()))?
+                );
+            }
+            Ok(())
+        }
+        "compare" => {
+            o.only(&[], 2)?;
+            let (a, b) = (read(o.free[0])?, read(o.free[1])?);
+            match reference::compare(&a, &b) {
+                Ok(()) => {
+                    let census = reference::census(&a).map_err(|e| err(e.to_string()))?;
+                    println!(
+                        "identical: {} and {} ({} bytes; {census})",
+                        o.free[0],
+                        o.free[1],
+                        a.len()
+                    );
+                    Ok(())
+                }
+                Err(d) => Err(err(format!("{} vs {}: {d}", o.free[0], o.free[1]))),
+            }
+        }
+        "serve" => {
+            o.only(&["listen"], 0)?;
+            let addr = o.get("listen").unwrap_or("127.0.0.1:7070");
+            let listener =
+                std::net::TcpListener::bind(addr).map_err(|e| err(format!("{addr}: {e}")))?;
+            println!(
+                "camera emulator on tcp://{} (rows up to {} pixels / {} samples)",
+                listener.local_addr().map_err(|e| err(e.to_string()))?,
+                limits::MAX_WIDTH,
+                limits::MAX_ROW_SAMPLES
+            );
+            let stop = std::sync::atomic::AtomicBool::new(false);
+            emulator::serve_tcp(&listener, &stop, |peer, result| match result {
+                Ok(r) => println!(
+                    "{peer}: {} requests, {} rows, {} errors",
+                    r.requests, r.rows, r.errors
+                ),
+                Err(e) => println!("{peer}: link failed: {e}"),
+            })
+            .map_err(|e| err(format!("{addr}: {e}")))
+        }
+        "info" => {
+            o.only(&[], 0)?;
+            println!(
+                "rows up to {} pixels and {} samples; {} candidates per pixel; decoder tables up to {} floats; buffers {} bytes",
+                limits::MAX_WIDTH,
+                limits::MAX_ROW_SAMPLES,
+                limits::CANDIDATE_CAPACITY,
+                limits::MAX_TABLE_FLOATS,
+                fsm_firmware::memory::MEMORY_BYTES
+            );
+            Ok(())
+        }
+        other => Err(Failure::Usage(format!("unknown command {other}"))),
+    }
+}

@@ -1,0 +1,100 @@
+//! The largest plan and row the camera accepts, and the memory that takes.
+//!
+//! Every buffer is sized here, at compile time; nothing is allocated at run time. The camera
+//! accepts:
+//!
+//! - **any valid plan whose decoder tables fit [`MAX_TABLE_FLOATS`]** (6 MiB): the paper's BFSM
+//!   plan needs 184,320 floats, its EFSM plans (cB 64) 19,328; the largest valid plan found by
+//!   a scan over power-of-two transforms and periods (BFSM, 8192 columns, N 4096, Hann window)
+//!   1,445,888. A plan that needs more is refused (`DeviceError::PlanTooLarge`);
+//! - **rows of at most [`MAX_WIDTH`] pixels and [`MAX_ROW_SAMPLES`] samples** (`W·M`): the paper's
+//!   BFSM plan (770 frames with the dark and white references) up to 1361 pixels, its EFSM
+//!   plans (78 or 154 frames) up to the full 2048;
+//! - **up to [`CANDIDATE_CAPACITY`] candidates per pixel** (more are dropped weakest first and
+//!   the pixel is flagged `TRUNCATED`, as on the host).
+//!
+//! `memory::MEMORY_BYTES` is the size of all buffers together (about 15.3 MB, in `.bss`); the
+//! build prints the image's text/data/bss (`scripts/build-arm.sh`).
+
+use fsm_core::plan::MAX_TRANSFORM_SIZE;
+use fsm_core::wire::candidates::{CANDIDATE_LEN, PIXEL_LEN, RECORD_OVERHEAD};
+use fsm_core::PixelCandidates;
+use fsm_protocol::frame::max_frame_len;
+
+/// Most pixels per row.
+pub const MAX_WIDTH: usize = 2048;
+/// Most samples per row, `W·M` (2 MiB of `u16`).
+pub const MAX_ROW_SAMPLES: usize = 1 << 20;
+/// Most candidates per pixel; the `capacity` of every candidate header the camera writes.
+/// `fsm decode` must decode with the same capacity for its files to be byte-identical.
+pub const CANDIDATE_CAPACITY: usize = 16;
+
+/// Candidates of one pixel, as the camera stores them.
+pub type Pixel = PixelCandidates<CANDIDATE_CAPACITY>;
+
+/// Floats of decoder tables (`Decoder::tables_len`: kernel, fit operators, window) the camera
+/// holds: 6 MiB.
+pub const MAX_TABLE_FLOATS: usize = 3 << 19;
+/// Floats of decoder scratch of the largest plan (`Decoder::scratch_len`).
+pub const MAX_SCRATCH_FLOATS: usize = (MAX_TRANSFORM_SIZE + 2) + (MAX_TRANSFORM_SIZE / 2 + 1);
+/// Bytes of the largest row-dump record (`8 + 2·W·M`).
+pub const MAX_ROW_RECORD: usize = 8 + 2 * MAX_ROW_SAMPLES;
+/// Bytes of the largest candidate record.
+pub const MAX_CANDIDATE_RECORD: usize =
+    RECORD_OVERHEAD + MAX_WIDTH * (PIXEL_LEN + CANDIDATE_LEN * CANDIDATE_CAPACITY);
+/// Bytes of the record buffer: a candidate record, or a row-dump record for raw output.
+pub const MAX_RECORD: usize = if MAX_ROW_RECORD > MAX_CANDIDATE_RECORD {
+    MAX_ROW_RECORD
+} else {
+    MAX_CANDIDATE_RECORD
+};
+/// Bytes a message adds around a record: tag and length varints (at most 1 + 5).
+const MESSAGE_OVERHEAD: usize = 8;
+/// Longest request frame (a `Row` of the largest record), delimiters included.
+pub const MAX_REQUEST_FRAME: usize = max_frame_len(MAX_ROW_RECORD + MESSAGE_OVERHEAD);
+/// Longest response frame (a record of [`MAX_RECORD`] bytes).
+pub const MAX_RESPONSE_FRAME: usize = max_frame_len(MAX_RECORD + MESSAGE_OVERHEAD);
+
+// Sizes travel as u32 in the protocol.
+const _: () = assert!(MAX_WIDTH <= MAX_ROW_SAMPLES && MAX_ROW_SAMPLES <= u32::MAX as usize);
+const _: () = assert!(CANDIDATE_CAPACITY <= u8::MAX as usize);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fsm_core::{Decoder, GroupCount, ScanPlan};
+
+    #[test]
+    fn presets_fit() {
+        for plan in [
+            ScanPlan::paper_bfsm(),
+            ScanPlan::paper_efsm(GroupCount::One),
+            ScanPlan::paper_efsm(GroupCount::Two),
+        ] {
+            assert!(Decoder::tables_len(&plan) <= MAX_TABLE_FLOATS);
+            assert!(Decoder::scratch_len(&plan) <= MAX_SCRATCH_FLOATS);
+        }
+        // The widths the module docs promise.
+        assert_eq!(
+            MAX_ROW_SAMPLES / ScanPlan::paper_bfsm().sequence_len(),
+            1361
+        );
+        let efsm2 = ScanPlan::paper_efsm(GroupCount::Two).sequence_len();
+        assert!(MAX_WIDTH * efsm2 <= MAX_ROW_SAMPLES);
+    }
+
+    #[test]
+    fn largest_plans_fit() {
+        // The largest plan the module docs name: BFSM over 8192 columns, N = 4096, Hann.
+        let mut plan = ScanPlan::paper_bfsm();
+        plan.projector_columns = 8192;
+        plan.band.period_columns = 16384;
+        plan.band.count = 4096;
+        plan.transform_size = 4096;
+        plan.decoding.window = fsm_core::Window::Hann;
+        assert_eq!(plan.validate(), Ok(()));
+        assert!(Decoder::tables_len(&plan) <= MAX_TABLE_FLOATS);
+        // The largest transform core allows sets the scratch.
+        assert_eq!(Decoder::scratch_len(&plan), MAX_SCRATCH_FLOATS);
+    }
+}

@@ -1,0 +1,235 @@
+//! A small scene with interreflections, rendered as a row dump (host only).
+//!
+//! A plane lit by a defocused projector spot, and a mirror beside it that relays a second,
+//! sharper spot onto part of every row: those pixels see two projector columns, the direct one
+//! and the mirrored one (the situation of paper Fig. 1). Pixels are rendered through the one
+//! pattern function `ScanPlan::intensity`, with ambient light, deterministic noise and a
+//! shadow at the end of the row.
+//!
+//! It stands in for the simulator's `plane_mirror` dump in the cross-check: anything that
+//! writes a row dump of the same plan can replace it (see `scripts/crosscheck-arm.sh`).
+
+use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_core::ScanPlan;
+
+/// The scene's parameters. Columns are projector columns (SPEC §1), light in sensor DN.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MirrorScene {
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Sensor bit depth.
+    pub bit_depth: u8,
+    /// Column seen directly at pixel (0, 0).
+    pub direct_first: f64,
+    /// Change of the direct column per pixel along the row.
+    pub direct_per_pixel: f64,
+    /// Change of the direct column per row.
+    pub direct_per_row: f64,
+    /// Defocus of the direct spot: Gaussian sigma, columns.
+    pub direct_blur: f64,
+    /// Modulation of the direct light, DN.
+    pub direct_dn: f64,
+    /// Pixels `[first, last)` of every row that the mirror also lights.
+    pub mirror_pixels: (u32, u32),
+    /// Column the mirror relays to the first mirror pixel.
+    pub mirror_first: f64,
+    /// Change of the mirrored column per pixel (a mirror reverses the direction).
+    pub mirror_per_pixel: f64,
+    /// Blur of the mirrored spot, columns.
+    pub mirror_blur: f64,
+    /// Modulation of the mirrored light, DN.
+    pub mirror_dn: f64,
+    /// Unmodulated light on every pixel, DN.
+    pub ambient_dn: f64,
+    /// Noise: uniform in `±noise_dn`, DN.
+    pub noise_dn: f64,
+    /// Pixels at the end of each row in shadow (ambient light only).
+    pub shadow_pixels: u32,
+    /// Seed of the noise.
+    pub seed: u64,
+}
+
+impl MirrorScene {
+    /// A scene of `width × height` pixels spanning most of `plan`'s projector columns.
+    pub fn for_plan(plan: &ScanPlan, width: u32, height: u32) -> Self {
+        let cmax = plan.projector_columns as f64;
+        let lit = width.saturating_sub(width / 8).max(1);
+        MirrorScene {
+            width,
+            height,
+            bit_depth: 12,
+            direct_first: 0.08 * cmax,
+            direct_per_pixel: 0.8 * cmax / lit as f64,
+            direct_per_row: 0.37,
+            direct_blur: 0.7,
+            direct_dn: 1500.0,
+            mirror_pixels: (width / 4, width / 4 + width / 3),
+            mirror_first: 0.95 * cmax,
+            mirror_per_pixel: -0.3 * cmax / lit as f64,
+            mirror_blur: 0.45,
+            mirror_dn: 650.0,
+            ambient_dn: 40.0,
+            noise_dn: 2.0,
+            shadow_pixels: width / 8,
+            seed: 0x5EED_F5A1,
+        }
+    }
+
+    /// The columns lighting pixel `(x, y)`: direct, and mirrored if any (`None` in shadow).
+    pub fn truth(&self, x: u32, y: u32) -> Option<(f64, Option<f64>)> {
+        if x >= self.width - self.shadow_pixels.min(self.width) {
+            return None;
+        }
+        let direct =
+            self.direct_first + self.direct_per_pixel * x as f64 + self.direct_per_row * y as f64;
+        let (first, last) = self.mirror_pixels;
+        let mirror = (first..last)
+            .contains(&x)
+            .then(|| self.mirror_first + self.mirror_per_pixel * (x - first) as f64);
+        Some((direct, mirror))
+    }
+
+    /// The samples of row `y`, sample-major (`frames[i·W + x]`, frame `i` in plan order).
+    pub fn row_samples(&self, plan: &ScanPlan, y: u32) -> Vec<u16> {
+        let w = self.width as usize;
+        let frames = plan.sequence_len();
+        let max = ((1u32 << self.bit_depth) - 1) as f64;
+        let mut out = vec![0u16; frames * w];
+        let mut spots: Vec<(i64, f64)> = Vec::new();
+        for x in 0..self.width {
+            spots.clear();
+            if let Some((direct, mirror)) = self.truth(x, y) {
+                spread(direct, self.direct_blur, self.direct_dn, &mut spots);
+                if let Some(m) = mirror {
+                    spread(m, self.mirror_blur, self.mirror_dn, &mut spots);
+                }
+            }
+            for (i, pattern) in plan.sequence().enumerate() {
+                let light: f64 = spots
+                    .iter()
+                    .filter(|(j, _)| *j >= 0)
+                    .map(|&(j, w)| w * plan.intensity(pattern, j as u32) as f64)
+                    .sum();
+                let noise = self.noise_dn * noise(self.seed, y, x, i as u32);
+                let v = (self.ambient_dn + light + noise).round().clamp(0.0, max);
+                out[i * w + x as usize] = v as u16;
+            }
+        }
+        out
+    }
+
+    /// The row dump of the scene under `plan`: header and one record per row, in row order.
+    pub fn dump(&self, plan: &ScanPlan) -> Vec<u8> {
+        let header = RowDumpHeader::for_plan(plan, self.width, self.height, self.bit_depth);
+        let record_len = header.record_len().expect("scene rows fit in memory");
+        let mut out = Vec::with_capacity(64 + record_len * self.height as usize);
+        out.extend_from_slice(&header.encode());
+        let mut record = vec![0u8; record_len];
+        for y in 0..self.height {
+            let samples = self.row_samples(plan, y);
+            let n = row_dump::encode_record(&header, y, &samples, &mut record)
+                .expect("record of the header's geometry");
+            out.extend_from_slice(&record[..n]);
+        }
+        out
+    }
+}
+
+/// Adds the integer columns around `centre` with Gaussian weights summing to `dn`.
+fn spread(centre: f64, sigma: f64, dn: f64, out: &mut Vec<(i64, f64)>) {
+    let start = out.len();
+    let c = centre.round() as i64;
+    let mut total = 0.0;
+    for j in c - 4..=c + 4 {
+        let d = (j as f64 - centre) / sigma;
+        let w = (-0.5 * d * d).exp();
+        total += w;
+        out.push((j, w));
+    }
+    for (_, w) in &mut out[start..] {
+        *w *= dn / total;
+    }
+}
+
+/// Uniform in `[-1, 1]`, a fixed function of its arguments (SplitMix64).
+fn noise(seed: u64, y: u32, x: u32, frame: u32) -> f64 {
+    let mut z = seed
+        ^ (y as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (x as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+        ^ (frame as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fsm_core::{Decoder, GroupCount, PixelCandidates, Row};
+
+    /// The scene is what it claims: every lit pixel decodes to its direct column, and the
+    /// mirror pixels to their mirrored column as well.
+    #[test]
+    fn decodes_to_its_truth() {
+        for plan in [
+            ScanPlan::paper_bfsm(),
+            ScanPlan::paper_efsm(GroupCount::Two),
+        ] {
+            let scene = MirrorScene::for_plan(&plan, 32, 2);
+            let mut tables = vec![0.0; Decoder::tables_len(&plan)];
+            let decoder = Decoder::new(&plan, &mut tables).unwrap();
+            let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
+            let y = 1;
+            let samples = scene.row_samples(&plan, y);
+            let row = Row {
+                frames: &samples,
+                width: 32,
+                bit_depth: 12,
+                column_limits: None,
+            };
+            let mut out = vec![PixelCandidates::<16>::new(); 32];
+            decoder.decode_row(&row, &mut scratch, &mut out).unwrap();
+            let (mut lit, mut mirrored) = (0, 0);
+            for (x, p) in out.iter().enumerate() {
+                let near = |c: f64| {
+                    p.candidates
+                        .iter()
+                        .any(|k| (k.column as f64 - c).abs() < 0.5)
+                };
+                match scene.truth(x as u32, y) {
+                    None => assert!(p.candidates.is_empty(), "shadow pixel {x}: {p:?}"),
+                    Some((direct, mirror)) => {
+                        assert!(near(direct), "pixel {x}: direct {direct} not in {p:?}");
+                        lit += 1;
+                        if let Some(m) = mirror {
+                            assert!(near(m), "pixel {x}: mirror {m} not in {p:?}");
+                            mirrored += 1;
+                        }
+                    }
+                }
+            }
+            assert_eq!((lit, mirrored), (28, 10));
+        }
+    }
+
+    #[test]
+    fn dump_reads_back() {
+        let plan = ScanPlan::paper_efsm(GroupCount::One);
+        let scene = MirrorScene::for_plan(&plan, 8, 3);
+        let dump = scene.dump(&plan);
+        let header = RowDumpHeader::decode(&dump).unwrap();
+        header.check_plan(&plan).unwrap();
+        let len = header.record_len().unwrap();
+        assert_eq!(dump.len(), 64 + 3 * len);
+        for (y, record) in dump[64..].chunks_exact(len).enumerate() {
+            let r = row_dump::decode_record(&header, record).unwrap();
+            assert_eq!(r.row, y as u32);
+            let mut samples = vec![0; r.len()];
+            r.copy_to(&mut samples).unwrap();
+            assert_eq!(samples, scene.row_samples(&plan, y as u32));
+        }
+    }
+}
