@@ -39,6 +39,8 @@ pub enum DecoderError {
     Plan(PlanError),
     /// The table storage is shorter than [`Decoder::tables_len`].
     TablesTooShort { needed: usize, got: usize },
+    /// The tables were built for another plan.
+    TablesOfAnotherPlan,
 }
 
 /// Why a row could not be decoded; nothing was written to the output.
@@ -68,6 +70,9 @@ impl fmt::Display for DecoderError {
             DecoderError::Plan(e) => write!(f, "invalid plan: {e}"),
             DecoderError::TablesTooShort { needed, got } => {
                 write!(f, "decoder tables need {needed} floats, got {got}")
+            }
+            DecoderError::TablesOfAnotherPlan => {
+                write!(f, "the decoder tables were built for another plan")
             }
         }
     }
@@ -120,9 +125,10 @@ pub struct Decoder<'t> {
 }
 
 impl<'t> Decoder<'t> {
-    /// Floats of table storage a decoder of `plan` needs (kernel, fit operators, window).
+    /// Floats of table storage a decoder of `plan` needs: a header holding the plan's
+    /// fingerprint, the kernel, the fit operators and the window.
     pub fn tables_len(plan: &ScanPlan) -> usize {
-        Kernel::storage_len(plan) + FitTable::storage_len(plan) + window_len(plan)
+        TABLES_HEADER + Kernel::storage_len(plan) + FitTable::storage_len(plan) + window_len(plan)
     }
 
     /// Floats of scratch [`Decoder::decode_row`] needs: one spectrum and one bin per power.
@@ -131,33 +137,58 @@ impl<'t> Decoder<'t> {
         (n + 2) + (n / 2 + 1)
     }
 
-    /// Validates `plan` and builds its tables in `tables`.
+    /// Validates `plan` and builds its tables in `tables`, then borrows them.
     pub fn new(plan: &ScanPlan, tables: &'t mut [f32]) -> Result<Self, DecoderError> {
+        Self::build_tables(plan, tables)?;
+        Self::from_tables(plan, tables)
+    }
+
+    /// Validates `plan` and builds its tables in `tables`: the costly part, once per plan (a
+    /// camera does it when a plan is uploaded, then decodes with [`Decoder::from_tables`]).
+    pub fn build_tables(plan: &ScanPlan, tables: &mut [f32]) -> Result<(), DecoderError> {
         plan.validate()?;
         let needed = Self::tables_len(plan);
-        if tables.len() < needed {
-            return Err(DecoderError::TablesTooShort {
-                needed,
-                got: tables.len(),
-            });
-        }
-        let (kernel_storage, rest) = tables.split_at_mut(Kernel::storage_len(plan));
-        let kernel = Kernel::build(plan, kernel_storage).ok_or(DecoderError::TablesTooShort {
+        let too_short = DecoderError::TablesTooShort {
             needed,
-            got: needed,
-        })?;
-        let (fit_storage, rest) = rest.split_at_mut(FitTable::storage_len(plan));
-        let fits =
-            FitTable::build(plan, &kernel, fit_storage).ok_or(DecoderError::TablesTooShort {
-                needed,
-                got: needed,
-            })?;
+            got: tables.len(),
+        };
+        let tables = tables.get_mut(..needed).ok_or(too_short)?;
+        let (header, rest) = tables.split_at_mut(TABLES_HEADER);
+        header.copy_from_slice(&fingerprint_floats(plan));
+        let (kernel_storage, rest) = rest.split_at_mut(Kernel::storage_len(plan));
+        Kernel::build(plan, kernel_storage).ok_or(too_short)?;
+        let kernel = Kernel::view(plan, kernel_storage).ok_or(too_short)?;
+        let (fit_storage, window) = rest.split_at_mut(FitTable::storage_len(plan));
+        FitTable::build(plan, &kernel, fit_storage).ok_or(too_short)?;
         let m = plan.band.count as usize;
-        let window = &mut rest[..window_len(plan)];
         for (i, h) in window.iter_mut().enumerate() {
             *h = kernel::hann(i, m) as f32;
         }
-        let window: &'t [f32] = window;
+        Ok(())
+    }
+
+    /// A decoder reading tables that [`Decoder::build_tables`] built for the same plan; the
+    /// plan's fingerprint in the tables' header must match.
+    pub fn from_tables(plan: &ScanPlan, tables: &'t [f32]) -> Result<Self, DecoderError> {
+        plan.validate()?;
+        let needed = Self::tables_len(plan);
+        let tables = tables.get(..needed).ok_or(DecoderError::TablesTooShort {
+            needed,
+            got: tables.len(),
+        })?;
+        let (header, rest) = tables.split_at(TABLES_HEADER);
+        if header != fingerprint_floats(plan) {
+            return Err(DecoderError::TablesOfAnotherPlan);
+        }
+        let too_short = DecoderError::TablesTooShort {
+            needed,
+            got: needed,
+        };
+        let (kernel_storage, rest) = rest.split_at(Kernel::storage_len(plan));
+        let kernel = Kernel::view(plan, kernel_storage).ok_or(too_short)?;
+        let (fit_storage, window) = rest.split_at(FitTable::storage_len(plan));
+        let fits = FitTable::view(plan, fit_storage).ok_or(too_short)?;
+        let m = plan.band.count as usize;
         // The sums the spectrum is scaled by come from the f32 weights actually applied.
         let (sum, sum_sq) = if window.is_empty() {
             (m as f64, m as f64)
@@ -380,6 +411,14 @@ impl<'t> Decoder<'t> {
         }
         out.sort();
     }
+}
+
+/// Floats of the tables' header: the plan fingerprint as four 16-bit pieces (exact in `f32`).
+const TABLES_HEADER: usize = 4;
+
+fn fingerprint_floats(plan: &ScanPlan) -> [f32; TABLES_HEADER] {
+    let f = plan.fingerprint();
+    core::array::from_fn(|i| ((f >> (16 * i)) & 0xffff) as f32)
 }
 
 /// Floats of window table: `M` for the Hann window, none for the rectangular one.

@@ -339,8 +339,9 @@ impl<'t> FitTable<'t> {
         domain.span as usize * (ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * Self::max_bins(&domain))
     }
 
-    /// Computes the operators of every centre column of `plan` into `storage`.
-    pub fn build(plan: &ScanPlan, kernel: &Kernel<'_>, storage: &'t mut [f32]) -> Option<Self> {
+    /// Computes the operators of every centre column of `plan` into `storage`; `None` if it is
+    /// shorter than [`FitTable::storage_len`].
+    pub fn build(plan: &ScanPlan, kernel: &Kernel<'_>, storage: &mut [f32]) -> Option<()> {
         let domain = FitDomain::of(plan);
         let max_bins = Self::max_bins(&domain);
         let stride = ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * max_bins;
@@ -406,6 +407,16 @@ impl<'t> FitTable<'t> {
                 }
             }
         }
+        Some(())
+    }
+
+    /// Reads operators built by [`FitTable::build`] for the same plan.
+    pub fn view(plan: &ScanPlan, storage: &'t [f32]) -> Option<Self> {
+        let domain = FitDomain::of(plan);
+        let max_bins = Self::max_bins(&domain);
+        let stride = ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * max_bins;
+        let span = domain.span as usize;
+        let data = storage.get(..span * stride)?;
         Some(FitTable {
             data,
             stride,

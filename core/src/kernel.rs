@@ -86,10 +86,9 @@ impl<'t> Kernel<'t> {
         4 * plan.kernel_table_len() + 3 * plan.span_columns() as usize
     }
 
-    /// Fills `storage` with the kernel of `plan` (which must be valid) and borrows it.
-    ///
-    /// Returns `None` if `storage` is shorter than [`Kernel::storage_len`].
-    pub fn build(plan: &ScanPlan, storage: &'t mut [f32]) -> Option<Self> {
+    /// Fills `storage` with the kernel of `plan` (which must be valid); `None` if `storage` is
+    /// shorter than [`Kernel::storage_len`].
+    pub fn build(plan: &ScanPlan, storage: &mut [f32]) -> Option<()> {
         let len = plan.kernel_table_len();
         let span = plan.span_columns() as usize;
         let (storage, column_storage) =
@@ -121,23 +120,38 @@ impl<'t> Kernel<'t> {
             entry[0] = (g.0 / window_sum) as f32;
             entry[1] = (g.1 / window_sum) as f32;
         }
-        let mut kernel = Kernel {
-            table: storage,
-            columns: &[],
-            len: len as i64,
+        let kernel = Kernel::with_table(plan, storage, &[]);
+        for (j, entry) in column_storage.chunks_exact_mut(3).enumerate() {
+            let t = kernel.compute_column_terms(j as i64);
+            entry.copy_from_slice(&[t.phase.re, t.phase.im, t.mean]);
+        }
+        Some(())
+    }
+
+    /// Reads a kernel built by [`Kernel::build`] for the same plan; `None` if `storage` is
+    /// shorter than [`Kernel::storage_len`].
+    pub fn view(plan: &ScanPlan, storage: &'t [f32]) -> Option<Self> {
+        let len = plan.kernel_table_len();
+        let span = plan.span_columns() as usize;
+        let (table, columns) = storage.get(..4 * len + 3 * span)?.split_at(4 * len);
+        Some(Kernel::with_table(plan, table, columns))
+    }
+
+    fn with_table(plan: &ScanPlan, table: &'t [f32], columns: &'t [f32]) -> Self {
+        let len = plan.kernel_table_len() as i64;
+        let n = plan.transform_size as i64;
+        let per_bin = len / n;
+        Kernel {
+            table,
+            columns,
+            len,
             transform_size: n,
             per_bin,
             per_column: per_bin * n / plan.band.period_columns as i64,
             period: plan.band.period_columns as i64,
             first_harmonic: plan.band.first_harmonic as i64,
-            count: m as i64,
-        };
-        for (j, entry) in column_storage.chunks_exact_mut(3).enumerate() {
-            let t = kernel.compute_column_terms(j as i64);
-            entry.copy_from_slice(&[t.phase.re, t.phase.im, t.mean]);
+            count: plan.band.count as i64,
         }
-        kernel.columns = column_storage;
-        Some(kernel)
     }
 
     /// `G(t/q)` for any table offset `t` (reduced modulo `N·q`).

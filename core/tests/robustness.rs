@@ -202,6 +202,39 @@ fn malformed_rows_are_refused_with_their_reason() {
 }
 
 #[test]
+fn tables_built_once_serve_many_decoders_of_their_plan_only() {
+    let plan = ScanPlan::paper_efsm(GroupCount::Two);
+    let mut tables = vec![0.0; Decoder::tables_len(&plan)];
+    Decoder::build_tables(&plan, &mut tables).unwrap();
+    let pixel = Pixel::column(333, 1200.0).samples(&plan, 1.0, 12, &mut Noise::new(9));
+    let row = Row {
+        frames: &pixel,
+        width: 1,
+        bit_depth: 12,
+        column_limits: None,
+    };
+    let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
+    let (mut a, mut b) = (PixelCandidates::<8>::new(), PixelCandidates::<8>::new());
+    Decoder::from_tables(&plan, &tables)
+        .unwrap()
+        .decode_pixel(&row, 0, &mut scratch, &mut a)
+        .unwrap();
+    Decoder::from_tables(&plan, &tables)
+        .unwrap()
+        .decode_pixel(&row, 0, &mut scratch, &mut b)
+        .unwrap();
+    assert_eq!(a, b);
+    assert!((a.strongest().unwrap().column - 333.0).abs() < 0.02);
+    // The same tables read with another plan (here: one threshold differs) are refused.
+    let mut other = plan;
+    other.decoding.relative_floor = 0.05;
+    assert_eq!(
+        Decoder::from_tables(&other, &tables).unwrap_err(),
+        DecoderError::TablesOfAnotherPlan
+    );
+}
+
+#[test]
 fn column_limits_drop_candidates_outside_them() {
     let plan = ScanPlan::paper_efsm(GroupCount::One);
     let mut tables = vec![0.0; Decoder::tables_len(&plan)];
