@@ -148,8 +148,14 @@ impl<'m> Device<'m> {
         let mut loaded: Option<u64> = None;
         loop {
             // The decoder of the loaded plan borrows the tables until the next plan is loaded.
+            // Tables already built for this plan (an earlier connection) are reused as they are.
+            if let Some(p) = *plan {
+                if Decoder::from_tables(&p, &tables[..]).is_err() {
+                    let _ = Decoder::build_tables(&p, &mut tables[..]);
+                }
+            }
             let decoder = match *plan {
-                Some(p) => match Decoder::new(&p, &mut tables[..]) {
+                Some(p) => match Decoder::from_tables(&p, &tables[..]) {
                     Ok(d) => Some(d),
                     Err(e) => {
                         // Cannot happen for a plan that passed `check_plan`; refuse it anyway.
