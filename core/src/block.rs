@@ -6,8 +6,8 @@
 //! block); block `b` lights the pixel when its mask exceeds the dark level by a noise margin
 //! (`I_min`, eq. 17); each kept peak `c̃` and lit block `b` give `c = c̃ + b·cB − s_g`
 //! (eqs. 18–20). Candidates outside the pixel's column range are fictitious and dropped. A
-//! column both groups find is reported once, from the group that sees it further from a block
-//! border.
+//! column both groups find is reported once: the mean of the two views where both are well
+//! inside their blocks, else the view further from a block border.
 
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates};
 use crate::plan::{BlockCoding, ScanPlan};
@@ -22,6 +22,39 @@ pub fn in_guard(local_column: f32, coding: &BlockCoding) -> bool {
 /// Distance of a local column from the nearer border of its block.
 pub fn border_margin(local_column: f32, coding: &BlockCoding) -> f32 {
     local_column.min(coding.block_width as f32 - local_column)
+}
+
+/// Distance from a block border beyond which a group's view of a column is whole: the fit's
+/// columns (`±HALF_WIDTH`) and half a column of light around them lie inside the block.
+const WHOLE_VIEW_MARGIN: f32 = crate::deconvolution::HALF_WIDTH as f32 + 0.5;
+
+/// One candidate from two groups' views of the same column: where both see it whole, the
+/// amplitude-weighted mean (two independent estimates: √2 less noise); otherwise the view
+/// further from its block border, since light near a border is partly in the next block.
+fn merge_views(
+    plan: &ScanPlan,
+    coding: &BlockCoding,
+    old: &Candidate,
+    new: &Candidate,
+) -> Candidate {
+    let margin = |c: &Candidate| {
+        let shifted = c.column + plan.group_shift(c.group) as f32;
+        border_margin(shifted - c.block as f32 * coding.block_width as f32, coding)
+    };
+    let (m_old, m_new) = (margin(old), margin(new));
+    if m_old >= WHOLE_VIEW_MARGIN && m_new >= WHOLE_VIEW_MARGIN {
+        let total = old.amplitude + new.amplitude;
+        let mut merged = *old;
+        if total > 0.0 {
+            merged.column = (old.column * old.amplitude + new.column * new.amplitude) / total;
+        }
+        merged.amplitude = 0.5 * total;
+        merged
+    } else if m_new > m_old {
+        *new
+    } else {
+        *old
+    }
 }
 
 /// The levels of one group's masks at one pixel.
@@ -91,14 +124,8 @@ pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
                         peak: rank as u8,
                         block,
                     };
-                    // Both groups may see this column; the one that sees it further from a
-                    // block border has the least of the pattern's discontinuity in its light.
-                    let margin = |c: &Candidate| {
-                        let shifted = c.column + plan.group_shift(c.group) as f32;
-                        border_margin(shifted - c.block as f32 * coding.block_width as f32, coding)
-                    };
-                    out.offer(candidate, plan.decoding.merge_tolerance, |new, old| {
-                        margin(new) > margin(old)
+                    out.offer(candidate, plan.decoding.merge_tolerance, |old, new| {
+                        merge_views(plan, coding, old, new)
                     });
                 }
             }

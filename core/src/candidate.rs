@@ -18,7 +18,8 @@ pub struct Candidate {
     pub amplitude: f32,
     /// The groups whose peaks produced this column (both, when the two groups agree).
     pub groups: GroupSet,
-    /// The group the column, peak and block were taken from.
+    /// The group whose peak and block are reported (the first of two groups whose views of the
+    /// column were averaged).
     pub group: Group,
     /// Rank of the producing peak in its group's spectrum (0 = strongest).
     pub peak: u8,
@@ -114,24 +115,23 @@ impl<const K: usize> PixelCandidates<K> {
     }
 
     /// Adds a candidate. A candidate of another group within `merge_tolerance` columns of an
-    /// existing one is the same column seen twice: one entry remains, the one `better` prefers
-    /// (EFSM: the group that sees the column further from a block border), with the union of
-    /// the groups. When the list is full the weakest candidate gives way and the pixel is
-    /// flagged [`PixelFlags::TRUNCATED`].
+    /// existing one is the same column seen twice: one entry remains, what `merge(existing,
+    /// new)` makes of the two (EFSM: their average where both groups see the column well inside
+    /// a block, else the view further from a block border), with the union of the groups. When
+    /// the list is full the weakest candidate gives way and the pixel is flagged
+    /// [`PixelFlags::TRUNCATED`].
     pub(crate) fn offer(
         &mut self,
         candidate: Candidate,
         merge_tolerance: f32,
-        better: impl Fn(&Candidate, &Candidate) -> bool,
+        merge: impl Fn(&Candidate, &Candidate) -> Candidate,
     ) {
         for c in self.candidates.iter_mut() {
             if !c.groups.intersects(candidate.groups)
                 && (c.column - candidate.column).abs() <= merge_tolerance
             {
                 let groups = c.groups.union(candidate.groups);
-                if better(&candidate, c) {
-                    *c = candidate;
-                }
+                *c = merge(c, &candidate);
                 c.groups = groups;
                 return;
             }

@@ -388,7 +388,7 @@ impl<'t> Decoder<'t> {
                                 peak: rank as u8,
                                 block: 0,
                             };
-                            out.offer(candidate, plan.decoding.merge_tolerance, |_, _| false);
+                            out.offer(candidate, plan.decoding.merge_tolerance, |old, _| *old);
                         }
                     }
                 }

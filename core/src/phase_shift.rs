@@ -229,7 +229,7 @@ impl PhaseShiftPlan {
                 peak: 0,
                 block: 0,
             };
-            out.offer(candidate, 0.0, |_, _| false);
+            out.offer(candidate, 0.0, |old, _| *old);
         }
     }
 

@@ -174,8 +174,8 @@ pub struct DecodeSettings {
     pub mask_noise_factor: f32,
     /// … and by this fraction of the brightest mask's excess over dark.
     pub mask_relative_floor: f32,
-    /// EFSM: candidates of the two groups closer than this (columns) are one candidate, kept
-    /// from the group that sees it further from a block border.
+    /// EFSM: candidates of the two groups closer than this (columns) are one candidate: their
+    /// mean where both groups see it well inside a block, else the view further from a border.
     pub merge_tolerance: f32,
 }
 

@@ -77,9 +77,12 @@ fn efsm_two_groups_recover_every_column_and_cover_each_others_borders() {
             found == expected || on_edge,
             "column {c}: {found:?} vs {expected:?}"
         );
-        // The column is taken from the group that sees it furthest from a block border.
+        // Where both groups see the column whole (its fit inside the block) their views are
+        // averaged; otherwise the view is the group's that sees it further from a border.
+        let whole = |g| margin(g) + coding.border_guard >= 3.5;
         let best = plan.groups().map(margin).fold(f32::MIN, f32::max);
-        assert_eq!(margin(p.candidates[0].group), best, "column {c}");
+        let averaged = plan.groups().all(whole);
+        assert!(averaged || margin(p.candidates[0].group) == best, "column {c}");
     }
     println!("EFSM two groups every column: worst error {worst:.4} column");
     assert!(worst < 0.02, "worst {worst}");
