@@ -10,6 +10,7 @@ fn field(width: usize, height: usize) -> CandidateField {
         (0..4).map(move |k| Label {
             point_mm: [p[0] * (1.0 + 0.05 * k as f32), p[1], p[2] + 35.0 * k as f32],
             amplitude: 100.0 - 10.0 * k as f32,
+            column: 0.0,
         })
     })
 }

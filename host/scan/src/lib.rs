@@ -2,8 +2,17 @@
 //!
 //! | stage | module | paper |
 //! |---|---|---|
+//! | every candidate → a 3D point, measurement volume | [`triangulate`] | SPEC §5 |
 //! | choose the direct candidate of every pixel | [`selection`] | §III-E, eqs. 10–13 |
+//! | the chosen point, column and direct / indirect light per pixel | [`surface`] | eqs. 12–13 |
+//! | Fig. 9 metrics and column errors against ground truth | [`metrics`] | §VII-B |
+//! | `points.ply` | [`ply`] | |
 
+pub mod metrics;
+pub mod ply;
 pub mod selection;
+pub mod surface;
+pub mod triangulate;
 
 pub use selection::{select, CandidateField, Label, Paths, Selection, SelectionParams};
+pub use surface::Surface;

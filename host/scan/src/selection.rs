@@ -35,6 +35,8 @@ pub struct Label {
     pub point_mm: [f32; 3],
     /// Fringe modulation of its peak, sensor DN (`I_c`).
     pub amplitude: f32,
+    /// The candidate's projector column.
+    pub column: f32,
 }
 
 /// The candidates of every pixel of an image, row-major.

@@ -29,11 +29,13 @@ fn mirror_field(direct: f32, indirect: f32) -> CandidateField {
         let mut labels = vec![Label {
             point_mm: plane(x, y),
             amplitude: direct,
+            column: 0.0,
         }];
         if in_patch(x, y) {
             labels.push(Label {
                 point_mm: fictitious(x, y),
                 amplitude: indirect,
+                column: 0.0,
             });
         }
         // Strongest first, as the decoder orders candidates.
@@ -89,10 +91,12 @@ fn the_strongest_candidate_wins_without_a_neighbourhood_to_say_otherwise() {
                 Label {
                     point_mm: [0.0, 0.0, 500.0],
                     amplitude: 9.0,
+                    column: 0.0,
                 },
                 Label {
                     point_mm: [0.0, 0.0, 700.0],
                     amplitude: 3.0,
+                    column: 0.0,
                 },
             ]
         } else {
@@ -115,6 +119,7 @@ fn a_real_depth_step_keeps_both_sides() {
         vec![Label {
             point_mm: p,
             amplitude: 1.0,
+            column: 0.0,
         }]
     });
     let s = select(&field, &SelectionParams::for_footprint(FOOTPRINT_MM));
@@ -144,7 +149,7 @@ proptest! {
         };
         let field = CandidateField::from_fn(width, height, |_, _| {
             let n = (next() * 5.0) as usize;
-            (0..n).map(|_| Label { point_mm: [next() * 100.0, next() * 100.0, 400.0 + next() * 200.0], amplitude: next() * 100.0 }).collect::<Vec<_>>()
+            (0..n).map(|_| Label { point_mm: [next() * 100.0, next() * 100.0, 400.0 + next() * 200.0], amplitude: next() * 100.0, column: 0.0 }).collect::<Vec<_>>()
         });
         let params = SelectionParams { paths: if sixteen { Paths::Sixteen } else { Paths::Eight }, ..SelectionParams::for_footprint(0.5) };
         let s = select(&field, &params);
@@ -173,6 +178,7 @@ fn an_isolated_choice_is_dropped() {
         vec![Label {
             point_mm: p,
             amplitude: 1.0,
+            column: 0.0,
         }]
     });
     let params = SelectionParams::for_footprint(FOOTPRINT_MM);

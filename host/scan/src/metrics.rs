@@ -1,0 +1,88 @@
+//! The paper's Fig. 9 metrics, and the column errors the simulator's ground truth allows.
+//!
+//! - `Ed`: RMS distance between the points of the same pixels in two scans (with and without
+//!   interreflection).
+//! - `EnoI`, `EwiI`: RMS distance of a scan's points to their least-squares plane.
+//! - completeness: the share of pixels that got a point.
+//! - column errors against the true direct column: RMS, and the share within 0.5 column.
+
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+
+/// RMS distance between the points two scans chose for the same pixels (`Ed`), over the
+/// pixels of `mask` where both have one; `None` if there are none.
+pub fn rms_deviation_mm(a: &[Option<[f32; 3]>], b: &[Option<[f32; 3]>], mask: &[bool]) -> Option<f64> {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for ((p, q), &m) in a.iter().zip(b).zip(mask) {
+        if let (true, Some(p), Some(q)) = (m, p, q) {
+            let d: f64 = (0..3).map(|i| (p[i] as f64 - q[i] as f64).powi(2)).sum();
+            sum += d;
+            n += 1;
+        }
+    }
+    (n > 0).then(|| (sum / n as f64).sqrt())
+}
+
+/// RMS orthogonal distance of `points` to their least-squares plane (`EnoI`, `EwiI`): the
+/// square root of the smallest eigenvalue of their covariance. `None` below 3 points.
+pub fn plane_fit_rmse_mm(points: impl IntoIterator<Item = [f32; 3]>) -> Option<f64> {
+    let points: Vec<Vector3<f64>> =
+        points.into_iter().map(|p| Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect();
+    if points.len() < 3 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let centroid = points.iter().sum::<Vector3<f64>>() / n;
+    let mut covariance = Matrix3::zeros();
+    for p in &points {
+        let d = p - centroid;
+        covariance += d * d.transpose();
+    }
+    covariance /= n;
+    let eigen = SymmetricEigen::new(covariance);
+    Some(eigen.eigenvalues.min().max(0.0).sqrt())
+}
+
+/// Column errors of the chosen columns against the truth, over the pixels of `mask` that have
+/// a true column.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColumnErrors {
+    /// Pixels compared (masked, with a true column).
+    pub pixels: usize,
+    /// Of those, pixels that got a column.
+    pub decoded: usize,
+    /// RMS error of the decoded columns within 0.5 column of the truth (the precision of the
+    /// ones that are right).
+    pub rms_columns: f64,
+    /// Share of the compared pixels whose column is within 0.5 column of the truth.
+    pub within_half_column: f64,
+    /// RMS error of every decoded column, outliers included (how far off a method is).
+    pub rms_all_columns: f64,
+}
+
+/// Compares chosen columns with true ones (`NaN` where a pixel has no true column).
+pub fn column_errors(chosen: &[Option<f32>], truth: &[f64], mask: &[bool]) -> ColumnErrors {
+    let (mut pixels, mut decoded, mut within, mut sum, mut sum_all) =
+        (0usize, 0usize, 0usize, 0.0f64, 0.0f64);
+    for ((c, &t), &m) in chosen.iter().zip(truth).zip(mask) {
+        if !m || !t.is_finite() {
+            continue;
+        }
+        pixels += 1;
+        if let Some(c) = c {
+            decoded += 1;
+            let e = *c as f64 - t;
+            sum_all += e * e;
+            if e.abs() <= 0.5 {
+                within += 1;
+                sum += e * e;
+            }
+        }
+    }
+    ColumnErrors {
+        pixels,
+        decoded,
+        rms_columns: if within > 0 { (sum / within as f64).sqrt() } else { f64::NAN },
+        within_half_column: if pixels > 0 { within as f64 / pixels as f64 } else { f64::NAN },
+        rms_all_columns: if decoded > 0 { (sum_all / decoded as f64).sqrt() } else { f64::NAN },
+    }
+}
