@@ -1,1 +1,49 @@
-fn main() {}
+//! `fsm`: the command-line tool of the Frequency Shift Method scanner. A thin layer over
+//! `fsm-host`: each subcommand parses its arguments and calls the library.
+
+mod commands;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Structured-light scanning through interreflections with the Frequency Shift Method.
+///
+/// A scan is described by a plan file (`fsm plan`). The projector shows the plan's pattern
+/// images (`fsm patterns`), the camera captures one image per pattern (or dumps raw rows),
+/// and `fsm decode` finds, for every camera pixel, every projector column that lights it —
+/// directly or through reflections — with the candidate amplitudes. `fsm inspect` plots what
+/// the decoder sees at a pixel or along a row.
+#[derive(Parser)]
+#[command(name = "fsm", version, propagate_version = true, max_term_width = 100)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Plan(commands::plan::Args),
+    Patterns(commands::patterns::Args),
+    Convert(commands::convert::Args),
+    Decode(commands::decode::Args),
+    Inspect(commands::inspect::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Plan(args) => commands::plan::run(args),
+        Command::Patterns(args) => commands::patterns::run(args),
+        Command::Convert(args) => commands::convert::run(args),
+        Command::Decode(args) => commands::decode::run(args),
+        Command::Inspect(args) => commands::inspect::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("fsm: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

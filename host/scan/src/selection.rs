@@ -113,17 +113,8 @@ pub enum Paths {
 
 impl Paths {
     fn directions(self) -> &'static [(i32, i32)] {
-        const EIGHT: [(i32, i32); 8] = [
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (-1, -1),
-            (1, -1),
-            (-1, 1),
-        ];
-        const SIXTEEN: [(i32, i32); 16] = [
+        // Horizontal, vertical, diagonal, then the knight's moves.
+        const DIRECTIONS: [(i32, i32); 16] = [
             (1, 0),
             (-1, 0),
             (0, 1),
@@ -142,8 +133,8 @@ impl Paths {
             (-1, 2),
         ];
         match self {
-            Paths::Eight => &EIGHT,
-            Paths::Sixteen => &SIXTEEN,
+            Paths::Eight => &DIRECTIONS[..8],
+            Paths::Sixteen => &DIRECTIONS,
         }
     }
 }

@@ -1,0 +1,59 @@
+//! `fsm convert`: turn a stack of captured images into a row dump.
+
+use std::path::PathBuf;
+
+use fsm_host::capture::Capture;
+use fsm_host::dump;
+use fsm_host::progress::Progress;
+use fsm_host::Result;
+
+use super::BitDepth;
+
+/// Convert a stack of captured images into a row dump (the format the camera streams).
+///
+/// The stack is checked against the plan first (image count, size, bit depth), then read in
+/// bands of rows within the memory budget; the dump appears whole or not at all.
+///
+/// Example: fsm convert --plan plan.toml --images captures/ --bit-depth 12 --out scan.dump
+#[derive(clap::Args, Debug)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Scan-plan file the images were captured with.
+    #[arg(long, value_name = "FILE")]
+    plan: PathBuf,
+    /// Folder of captured images (0000.png, 0001.png, …).
+    #[arg(long, value_name = "DIR")]
+    images: PathBuf,
+    #[command(flatten)]
+    bit_depth: BitDepth,
+    /// Output dump file.
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+    /// Most captured samples held in memory at once, MiB.
+    #[arg(long, value_name = "MiB", default_value_t = 2048)]
+    memory_budget: u64,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let plan = super::load_plan(&args.plan)?;
+    let Capture::Stack(stack) = Capture::open_stack(&args.images, &plan, args.bit_depth.bit_depth)?
+    else {
+        unreachable!("open_stack returns a stack")
+    };
+    let header = dump::write_dump_from_stack(
+        &plan,
+        &stack,
+        &args.out,
+        super::mebibytes(args.memory_budget),
+        &Progress::stderr(),
+    )?;
+    eprintln!(
+        "wrote {}: {} rows of {} pixels x {} frames, {}-bit",
+        args.out.display(),
+        header.height,
+        header.width,
+        header.frames,
+        header.bit_depth
+    );
+    Ok(())
+}

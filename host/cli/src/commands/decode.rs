@@ -1,0 +1,88 @@
+//! `fsm decode`: every candidate of every pixel, from a stack or a dump.
+
+use std::path::PathBuf;
+
+use fsm_host::candidate_file::CANDIDATE_FILE_NAME;
+use fsm_host::column_map::{COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
+use fsm_host::decode::{self, DecodeOptions};
+use fsm_host::progress::Progress;
+use fsm_host::Result;
+
+use super::{BitDepth, CaptureSource};
+
+/// Decode a scan: every projector column that lights each camera pixel.
+///
+/// Writes into the output folder:
+///   candidates.fsmc  every candidate of every pixel (column, amplitude, EFSM block and group),
+///                    one CRC-protected record per camera row (format: README, "Candidate files")
+///   column.tiff      32-bit float: each pixel's strongest candidate column, NaN where none
+///   column.png       colour preview of column.tiff (black: no candidate)
+///
+/// The capture is checked against the plan before any work; the folder appears whole or not
+/// at all.
+///
+/// Examples:
+///   fsm decode --plan plan.toml --images captures/ --bit-depth 12 --out decoded/
+///   fsm decode --plan plan.toml --dump scan.dump --out decoded/
+#[derive(clap::Args, Debug)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Scan-plan file the capture was made with.
+    #[arg(long, value_name = "FILE")]
+    plan: PathBuf,
+    #[command(flatten)]
+    source: CaptureSource,
+    #[command(flatten)]
+    bit_depth: BitDepth,
+    /// Output folder (created; must not exist or be empty, unless --force).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Decoding threads (default: one per core).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    threads: usize,
+    /// Most captured samples held in memory at once, MiB: a stack larger than this is read
+    /// in bands of rows (re-reading the images for each band).
+    #[arg(long, value_name = "MiB", default_value_t = 2048)]
+    memory_budget: u64,
+    /// Replace the output folder if it exists and is not empty.
+    #[arg(long)]
+    force: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let plan = super::load_plan(&args.plan)?;
+    let capture = args.source.open(&plan, &args.bit_depth)?;
+    let options = DecodeOptions {
+        memory_budget_bytes: super::mebibytes(args.memory_budget),
+        threads: args.threads,
+    };
+    let summary = decode::decode_to_dir(
+        &plan,
+        &capture,
+        &args.out,
+        args.force,
+        &options,
+        &Progress::stderr(),
+    )?;
+    let pixels = summary.pixels().max(1) as f64;
+    eprintln!(
+        "decoded {} ({}x{}) in {:.2} s: {:.3} Mpx/s",
+        capture.describe(),
+        summary.width,
+        summary.height,
+        summary.seconds,
+        summary.megapixels_per_second()
+    );
+    eprintln!(
+        "  {:.1}% of pixels have candidates, {:.2} per lit pixel; {} saturated, {} with more than the file's capacity",
+        100.0 * summary.lit_pixels as f64 / pixels,
+        summary.candidates as f64 / summary.lit_pixels.max(1) as f64,
+        summary.saturated_pixels,
+        summary.truncated_pixels
+    );
+    eprintln!(
+        "  wrote {}/{{{CANDIDATE_FILE_NAME}, {COLUMN_TIFF_NAME}, {COLUMN_PREVIEW_NAME}}}",
+        args.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,85 @@
+//! `fsm patterns`: write the projector images of a plan's whole sequence.
+
+use std::path::PathBuf;
+
+use fsm_host::image_files::ImageFormat;
+use fsm_host::patterns::{self, PatternOptions};
+use fsm_host::progress::Progress;
+use fsm_host::projector_response::ProjectorResponse;
+use fsm_host::Result;
+
+/// Write the projector images of the plan's whole sequence, in projection order.
+///
+/// Images are numbered 0000.png, 0001.png, … (dark and white references first, then each
+/// group's fringes and masks), with manifest.json saying what each image is. Every image is
+/// one projector row repeated down the height: patterns vary along columns only.
+///
+/// Example: fsm patterns --plan plan.toml --height 768 --out patterns/
+#[derive(clap::Args, Debug)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Scan-plan file.
+    #[arg(long, value_name = "FILE")]
+    plan: PathBuf,
+    /// Output folder (created; must not exist or be empty, unless --force).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Projector height in pixels.
+    #[arg(long, value_name = "ROWS")]
+    height: u32,
+    /// Projector width in pixels (default: the plan's projector columns; extra columns are
+    /// dark).
+    #[arg(long, value_name = "COLUMNS")]
+    width: Option<u32>,
+    /// Write 16-bit images (default 8-bit).
+    #[arg(long)]
+    sixteen_bit: bool,
+    /// Write TIFF instead of PNG.
+    #[arg(long)]
+    tiff: bool,
+    /// Pre-correct the codes with the projector's measured response (gamma or table; see
+    /// the README, "Projector response files") so that the emitted light follows the cosine.
+    #[arg(long, value_name = "FILE")]
+    gamma: Option<PathBuf>,
+    /// Replace the output folder if it exists and is not empty.
+    #[arg(long)]
+    force: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let plan = super::load_plan(&args.plan)?;
+    let response = args
+        .gamma
+        .as_deref()
+        .map(ProjectorResponse::read)
+        .transpose()?;
+    let options = PatternOptions {
+        width: args.width,
+        height: args.height,
+        sixteen_bit: args.sixteen_bit,
+        format: if args.tiff {
+            ImageFormat::Tiff
+        } else {
+            ImageFormat::Png
+        },
+        response,
+    };
+    let manifest = patterns::write_pattern_set(
+        &plan,
+        &options,
+        args.gamma.as_deref(),
+        &args.out,
+        args.force,
+        &Progress::stderr(),
+    )?;
+    eprintln!(
+        "wrote {} images of {}x{} ({}-bit) and {} to {}",
+        manifest.frames.len(),
+        manifest.width,
+        manifest.height,
+        manifest.bit_depth,
+        patterns::MANIFEST_NAME,
+        args.out.display()
+    );
+    Ok(())
+}

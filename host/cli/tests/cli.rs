@@ -1,0 +1,381 @@
+//! The real `fsm` binary end to end: plan → patterns → (flat-wall captures) → convert →
+//! decode from the stack and from the dump (byte-identical candidate files) → inspect; and bad
+//! input — wrong image count, size or bit depth, a foreign plan, a corrupted dump — exits
+//! non-zero with a message naming what and where, leaving no output behind.
+
+#[path = "../../tests/support/mod.rs"]
+mod support;
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+use fsm_host::candidate_file::{CandidateReader, HostCandidates, CANDIDATE_FILE_NAME};
+use support::{entries, FlatWall};
+
+fn fsm() -> Command {
+    Command::cargo_bin("fsm").unwrap()
+}
+
+/// Runs `fsm` expecting success; returns stdout.
+fn ok(args: &[&str]) -> String {
+    let out = fsm().args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "fsm {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Runs `fsm` expecting failure; returns stderr.
+fn fails(args: &[&str]) -> String {
+    let out = fsm().args(args).output().unwrap();
+    assert!(!out.status.success(), "fsm {args:?} should have failed");
+    assert_eq!(out.status.code(), Some(1), "fsm {args:?}: exit code");
+    String::from_utf8(out.stderr).unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A scan folder: EFSM two groups, 3 camera rows, 12-bit flat-wall captures.
+struct Scan {
+    dir: tempfile::TempDir,
+    plan: PathBuf,
+    captures: PathBuf,
+}
+
+fn scan() -> Scan {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.toml");
+    ok(&["plan", "--preset", "paper-efsm-2", "--out", s(&plan)]);
+    let patterns = dir.path().join("patterns");
+    ok(&[
+        "patterns",
+        "--plan",
+        s(&plan),
+        "--height",
+        "3",
+        "--out",
+        s(&patterns),
+    ]);
+    let captures = dir.path().join("captures");
+    FlatWall::twelve_bit().capture(&patterns, &captures);
+    Scan {
+        dir,
+        plan,
+        captures,
+    }
+}
+
+fn capture_file(scan: &Scan, frame: usize) -> PathBuf {
+    scan.captures.join(format!("{frame:04}.png"))
+}
+
+#[test]
+fn stack_and_dump_decode_to_identical_candidate_files() {
+    let scan = scan();
+    let dump = scan.dir.path().join("scan.dump");
+    ok(&[
+        "convert",
+        "--plan",
+        s(&scan.plan),
+        "--images",
+        s(&scan.captures),
+        "--bit-depth",
+        "12",
+        "--out",
+        s(&dump),
+    ]);
+    let from_stack = scan.dir.path().join("from-stack");
+    let from_dump = scan.dir.path().join("from-dump");
+    // Different budgets and threads: banding and batching must not change a byte.
+    ok(&[
+        "decode",
+        "--plan",
+        s(&scan.plan),
+        "--images",
+        s(&scan.captures),
+        "--bit-depth",
+        "12",
+        "--out",
+        s(&from_stack),
+        "--memory-budget",
+        "1",
+        "--threads",
+        "1",
+    ]);
+    ok(&[
+        "decode",
+        "--plan",
+        s(&scan.plan),
+        "--dump",
+        s(&dump),
+        "--out",
+        s(&from_dump),
+        "--threads",
+        "2",
+    ]);
+    let a = std::fs::read(from_stack.join(CANDIDATE_FILE_NAME)).unwrap();
+    let b = std::fs::read(from_dump.join(CANDIDATE_FILE_NAME)).unwrap();
+    assert_eq!(a, b, "candidate files differ");
+    for name in ["column.tiff", "column.png"] {
+        assert_eq!(
+            std::fs::read(from_stack.join(name)).unwrap(),
+            std::fs::read(from_dump.join(name)).unwrap(),
+            "{name}"
+        );
+    }
+    // And the decode is right: every pixel's strongest candidate is its own column.
+    let mut reader = CandidateReader::open(&from_dump.join(CANDIDATE_FILE_NAME)).unwrap();
+    let mut pixels = vec![HostCandidates::new(); 768];
+    while let Some(y) = reader.next_row(&mut pixels).unwrap() {
+        for (x, p) in pixels.iter().enumerate() {
+            let c = p
+                .strongest()
+                .unwrap_or_else(|| panic!("({x}, {y}) has no candidate"))
+                .column;
+            assert!((c - x as f32).abs() <= 0.05, "({x}, {y}): {c}");
+        }
+    }
+}
+
+#[test]
+fn inspect_draws_a_pixel_and_a_row() {
+    let scan = scan();
+    let pixel_png = scan.dir.path().join("pixel.png");
+    let stdout = ok(&[
+        "inspect",
+        "--plan",
+        s(&scan.plan),
+        "--images",
+        s(&scan.captures),
+        "--bit-depth",
+        "12",
+        "--pixel",
+        "300,1",
+        "--out",
+        s(&pixel_png),
+    ]);
+    assert!(
+        stdout.contains("pixel (300, 1): column 300.0")
+            || stdout.contains("pixel (300, 1): column 299.9"),
+        "{stdout}"
+    );
+    let row_png = scan.dir.path().join("row.png");
+    ok(&[
+        "inspect",
+        "--plan",
+        s(&scan.plan),
+        "--images",
+        s(&scan.captures),
+        "--bit-depth",
+        "12",
+        "--row",
+        "2",
+        "--group",
+        "2",
+        "--out",
+        s(&row_png),
+    ]);
+    for png in [&pixel_png, &row_png] {
+        let bytes = std::fs::read(png).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+        assert!(bytes.len() > 10_000, "{} is a real picture", png.display());
+    }
+    let e = fails(&[
+        "inspect",
+        "--plan",
+        s(&scan.plan),
+        "--images",
+        s(&scan.captures),
+        "--pixel",
+        "768,0",
+        "--out",
+        s(&pixel_png),
+    ]);
+    assert!(e.contains("pixel (768, 0) is outside"), "{e}");
+}
+
+/// A decode that must fail before writing anything: the message holds every `needle`.
+fn decode_fails(scan: &Scan, extra: &[&str], needles: &[&str]) {
+    let out = scan.dir.path().join("decoded");
+    let before = entries(scan.dir.path());
+    let mut args = vec!["decode", "--plan", s(&scan.plan), "--out", s(&out)];
+    args.extend_from_slice(extra);
+    let e = fails(&args);
+    for needle in needles {
+        assert!(e.contains(needle), "message lacks {needle:?}: {e}");
+    }
+    assert_eq!(
+        entries(scan.dir.path()),
+        before,
+        "output or temporary left behind"
+    );
+}
+
+#[test]
+fn wrong_image_count_is_refused() {
+    let scan = scan();
+    let last = capture_file(&scan, 153);
+    std::fs::remove_file(&last).unwrap();
+    decode_fails(
+        &scan,
+        &["--images", s(&scan.captures)],
+        &[
+            s(&scan.captures),
+            "153 numbered images",
+            "154 frames",
+            "frame 153 is the first missing",
+        ],
+    );
+    // A gap is named too.
+    std::fs::rename(capture_file(&scan, 40), &last).unwrap();
+    decode_fails(
+        &scan,
+        &["--images", s(&scan.captures)],
+        &["frame 40 is the first missing"],
+    );
+}
+
+#[test]
+fn wrong_image_size_or_depth_is_refused_naming_the_frame() {
+    let scan = scan();
+    let frame = capture_file(&scan, 77);
+    let (info, data) = fsm_host::image_files::read_image(&frame).unwrap();
+    // One row short.
+    let file = std::fs::File::create(&frame).unwrap();
+    let short = &data[..(info.width * (info.height - 1)) as usize];
+    fsm_host::image_files::write_png_gray16(file, info.width, info.height - 1, short).unwrap();
+    decode_fails(
+        &scan,
+        &["--images", s(&scan.captures)],
+        &[s(&frame), "frame 77", "768x2 16-bit", "768x3 16-bit"],
+    );
+    // 8-bit among 16-bit images.
+    let file = std::fs::File::create(&frame).unwrap();
+    let bytes: Vec<u8> = data.iter().map(|&v| (v >> 4) as u8).collect();
+    fsm_host::image_files::write_png_gray8(file, info.width, info.height, &bytes).unwrap();
+    decode_fails(
+        &scan,
+        &["--images", s(&scan.captures)],
+        &[s(&frame), "frame 77", "8-bit"],
+    );
+}
+
+#[test]
+fn a_bit_depth_too_small_for_the_samples_is_refused() {
+    let scan = scan();
+    // 12-bit data declared 10-bit: the white frame (1) exceeds 1023 at its first pixel.
+    decode_fails(
+        &scan,
+        &["--images", s(&scan.captures), "--bit-depth", "10"],
+        &[
+            s(&capture_file(&scan, 1)),
+            "frame 1",
+            "exceeds the 10-bit range",
+        ],
+    );
+}
+
+#[test]
+fn a_foreign_plan_or_a_damaged_dump_is_refused() {
+    let scan = scan();
+    let dump = scan.dir.path().join("scan.dump");
+    ok(&[
+        "convert",
+        "--plan",
+        s(&scan.plan),
+        "--images",
+        s(&scan.captures),
+        "--bit-depth",
+        "12",
+        "--out",
+        s(&dump),
+    ]);
+    // The same scan decoded with a plan that differs in one threshold.
+    let other = scan.dir.path().join("other.json");
+    ok(&[
+        "plan",
+        "--preset",
+        "paper-efsm-2",
+        "--set",
+        "decoding.noise_factor=5",
+        "--out",
+        s(&other),
+    ]);
+    let out = scan.dir.path().join("decoded");
+    let e = fails(&[
+        "decode",
+        "--plan",
+        s(&other),
+        "--dump",
+        s(&dump),
+        "--out",
+        s(&out),
+    ]);
+    assert!(e.contains(s(&dump)) && e.contains("fingerprint"), "{e}");
+    assert!(!out.exists());
+
+    // A flipped byte in row 2's record: the decode starts, fails naming the row, leaves nothing.
+    let mut bytes = std::fs::read(&dump).unwrap();
+    let record_len = (bytes.len() - 64) / 3;
+    bytes[64 + 2 * record_len + 1000] ^= 0x40;
+    std::fs::write(&dump, &bytes).unwrap();
+    decode_fails(
+        &scan,
+        &["--dump", s(&dump)],
+        &[s(&dump), "record 2", "row 2", "corrupted"],
+    );
+    // Cut short: refused before any work.
+    std::fs::write(&dump, &bytes[..bytes.len() - 10]).unwrap();
+    decode_fails(
+        &scan,
+        &["--dump", s(&dump)],
+        &[s(&dump), "truncated", "record 2", "row 2"],
+    );
+}
+
+#[test]
+fn plan_errors_name_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.toml");
+    ok(&["plan", "--preset", "paper-bfsm", "--out", s(&plan)]);
+    let stdout = ok(&["plan", "--check", s(&plan)]);
+    assert!(
+        stdout.contains("770 (dark, white, 768 fringes)"),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(&plan).unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, text.replace("count = 768", "count = \"many\"")).unwrap();
+    let e = fails(&["plan", "--check", s(&bad)]);
+    assert!(e.contains(s(&bad)) && e.contains("band.count"), "{e}");
+    std::fs::write(
+        &bad,
+        text.replace("transform_size = 1024", "transform_size = 1000"),
+    )
+    .unwrap();
+    let e = fails(&["plan", "--check", s(&bad)]);
+    assert!(e.contains("transform_size = 1000"), "{e}");
+    let e = fails(&[
+        "plan",
+        "--preset",
+        "paper-bfsm",
+        "--set",
+        "decoding.noise=3",
+    ]);
+    assert!(e.contains("decoding.noise"), "{e}");
+    let out = dir.path().join("x.toml");
+    fails(&[
+        "plan",
+        "--preset",
+        "paper-bfsm",
+        "--set",
+        "band.count=3",
+        "--out",
+        s(&out),
+    ]);
+    assert!(!out.exists());
+}

@@ -1,0 +1,352 @@
+//! Parallel decoding of a whole scan: every temporal row through `fsm_core`'s line decoder
+//! (paper §III-F, §IV-B), rows in parallel with rayon, results in row order.
+//!
+//! One [`Decoder`] per plan, shared by every thread (it only reads its tables); each thread
+//! has its own scratch and candidate buffers. Rows arrive in batches from a
+//! [`RowBatches`] source (stack bands or dump records, within the memory budget); a batch is
+//! decoded in chunks of a few rows per thread so that the decoded records held at once stay
+//! small; each row becomes its compact candidate record (the wire format of
+//! [`fsm_core::wire::candidates`]) and its strongest columns right away. Rows are handed to the
+//! sink in row order whatever order a dump stores them in (a dump written out of order holds
+//! the decoded rows that arrive early, compact records, until their turn).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+use fsm_core::wire::candidates::CandidateHeader;
+use fsm_core::{Decoder, PixelFlags, Row, ScanPlan};
+use rayon::prelude::*;
+
+use crate::candidate_file::{
+    self, CandidateWriter, HostCandidates, CANDIDATE_CAPACITY, CANDIDATE_FILE_NAME,
+};
+use crate::capture::{Capture, RowBatch, RowBatches};
+use crate::column_map::{ColumnMap, COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
+use crate::error::{Error, Result};
+use crate::outputs::StagedDir;
+use crate::progress::Progress;
+
+/// Default memory budget for captured samples held at once: 2 GiB.
+pub const DEFAULT_MEMORY_BUDGET: u64 = 2 << 30;
+
+/// How to decode.
+#[derive(Clone, Copy, Debug)]
+pub struct DecodeOptions {
+    /// Bytes of captured samples (`u16`) held at once: a stack band or a batch of dump rows.
+    pub memory_budget_bytes: u64,
+    /// Worker threads; 0 for one per core.
+    pub threads: usize,
+}
+
+impl Default for DecodeOptions {
+    fn default() -> Self {
+        DecodeOptions {
+            memory_budget_bytes: DEFAULT_MEMORY_BUDGET,
+            threads: 0,
+        }
+    }
+}
+
+/// One decoded row: its candidate record and its pixels' strongest columns.
+#[derive(Clone, Debug)]
+pub struct DecodedRow {
+    /// Camera row.
+    pub row: u32,
+    /// The row's record in the candidate format (CRC included).
+    pub record: Vec<u8>,
+    /// Strongest candidate column of each pixel, NaN where none.
+    pub strongest: Vec<f32>,
+    /// Pixels with at least one candidate.
+    pub lit_pixels: u32,
+    /// Candidates in the row.
+    pub candidates: u32,
+    /// Pixels flagged saturated.
+    pub saturated_pixels: u32,
+    /// Pixels whose candidate list overflowed.
+    pub truncated_pixels: u32,
+}
+
+/// What a decode did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DecodeSummary {
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Pixels with at least one candidate.
+    pub lit_pixels: u64,
+    /// Candidates in all.
+    pub candidates: u64,
+    /// Pixels flagged saturated.
+    pub saturated_pixels: u64,
+    /// Pixels whose candidate list overflowed.
+    pub truncated_pixels: u64,
+    /// Rows per batch read at once.
+    pub rows_per_batch: u32,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+impl DecodeSummary {
+    /// `W·H`.
+    pub fn pixels(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+
+    /// Throughput, megapixels per second of wall time.
+    pub fn megapixels_per_second(&self) -> f64 {
+        self.pixels() as f64 / self.seconds.max(f64::MIN_POSITIVE) / 1e6
+    }
+}
+
+/// The candidate-file header of a scan decoded by the host.
+pub fn candidate_header(plan: &ScanPlan, width: u32, height: u32) -> CandidateHeader {
+    CandidateHeader {
+        capacity: CANDIDATE_CAPACITY as u16,
+        plan_fingerprint: plan.fingerprint(),
+        width,
+        height,
+    }
+}
+
+fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Usage(format!("cannot start {threads} decoding threads: {e}")))
+}
+
+/// Decodes every row of `capture`, handing the rows to `sink` in row order.
+pub fn decode_capture(
+    plan: &ScanPlan,
+    capture: &Capture,
+    options: &DecodeOptions,
+    progress: &Progress,
+    sink: impl FnMut(DecodedRow) -> Result<()> + Send,
+) -> Result<DecodeSummary> {
+    let threads = thread_pool(options.threads)?.current_num_threads();
+    let mut batches = capture.batches(options.memory_budget_bytes, dump_batch_rows(threads))?;
+    decode_batches(plan, &mut batches, options, progress, sink)
+}
+
+/// Rows of a dump read per batch: enough to keep every thread busy between two reads.
+pub fn dump_batch_rows(threads: usize) -> u32 {
+    (8 * threads.max(1)) as u32
+}
+
+/// Decodes every row `batches` delivers, handing the rows to `sink` in row order.
+pub fn decode_batches(
+    plan: &ScanPlan,
+    batches: &mut RowBatches<'_>,
+    options: &DecodeOptions,
+    progress: &Progress,
+    mut sink: impl FnMut(DecodedRow) -> Result<()> + Send,
+) -> Result<DecodeSummary> {
+    let started = Instant::now();
+    let pool = thread_pool(options.threads)?;
+    let mut tables = vec![0.0f32; Decoder::tables_len(plan)];
+    let decoder = Decoder::new(plan, &mut tables)
+        .map_err(|e| Error::Usage(format!("cannot decode with this plan: {e}")))?;
+    let width = batches.width();
+    let height = batches.height();
+    let bit_depth = batches.bit_depth();
+    let row_len = batches.row_len();
+    let header = candidate_header(plan, width, height);
+    let chunk_rows = 4 * pool.current_num_threads();
+    let mut summary = DecodeSummary {
+        width,
+        height,
+        rows_per_batch: batches.rows_per_batch(),
+        ..Default::default()
+    };
+    let mut pending: BTreeMap<u32, DecodedRow> = BTreeMap::new();
+    let mut next_row = 0u32;
+    progress.start(height as u64, "decoding rows");
+    // Decodes one batch, chunk by chunk, and hands every row now due to the sink.
+    let mut process = |batch: &RowBatch| -> Result<()> {
+        for (rows, samples) in batch
+            .rows
+            .chunks(chunk_rows)
+            .zip(batch.samples.chunks(chunk_rows * row_len))
+        {
+            let decoded: Vec<DecodedRow> = pool.install(|| {
+                rows.par_iter()
+                    .zip(samples.par_chunks(row_len))
+                    .map_init(
+                        || {
+                            (
+                                vec![0.0f32; Decoder::scratch_len(plan)],
+                                vec![HostCandidates::new(); width as usize],
+                            )
+                        },
+                        |(scratch, pixels), (&row, frames)| {
+                            decode_row(&decoder, &header, row, frames, bit_depth, scratch, pixels)
+                        },
+                    )
+                    .collect::<Result<_>>()
+            })?;
+            progress.advance(decoded.len() as u64);
+            for d in decoded {
+                pending.insert(d.row, d);
+            }
+            while let Some(d) = pending.remove(&next_row) {
+                summary.lit_pixels += d.lit_pixels as u64;
+                summary.candidates += d.candidates as u64;
+                summary.saturated_pixels += d.saturated_pixels as u64;
+                summary.truncated_pixels += d.truncated_pixels as u64;
+                sink(d)?;
+                next_row += 1;
+            }
+        }
+        Ok(())
+    };
+    match batches {
+        // Stack bands are read frame-parallel on the pool, then decoded row-parallel: both
+        // phases use every thread, so alternating them costs nothing and holds one band.
+        RowBatches::Stack { .. } => {
+            let mut batch = RowBatch::default();
+            while pool.install(|| batches.next_batch(&mut batch))? {
+                process(&batch)?;
+            }
+        }
+        // Dump records are read and CRC-checked one after the other: a reader thread fills
+        // the next batch while this one decodes (two batches in all).
+        RowBatches::Dump { .. } => read_ahead(batches, &mut process)?,
+    }
+    progress.finish();
+    if next_row != height {
+        return Err(Error::Usage(format!(
+            "the capture delivered {next_row} of {height} rows in order; row {next_row} is missing"
+        )));
+    }
+    summary.seconds = started.elapsed().as_secs_f64();
+    Ok(summary)
+}
+
+/// Runs `process` on every batch of `batches`, reading the next batch on another thread
+/// meanwhile; two batch buffers circulate between the threads.
+fn read_ahead(
+    batches: &mut RowBatches<'_>,
+    process: &mut dyn FnMut(&RowBatch) -> Result<()>,
+) -> Result<()> {
+    std::thread::scope(|scope| {
+        let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<Result<Option<RowBatch>>>(1);
+        let (free_tx, free_rx) = std::sync::mpsc::channel::<RowBatch>();
+        for _ in 0..2 {
+            free_tx.send(RowBatch::default()).expect("receiver alive");
+        }
+        scope.spawn(move || {
+            while let Ok(mut batch) = free_rx.recv() {
+                let next = match batches.next_batch(&mut batch) {
+                    Ok(true) => Ok(Some(batch)),
+                    Ok(false) => Ok(None),
+                    Err(e) => Err(e),
+                };
+                let last = !matches!(next, Ok(Some(_)));
+                if full_tx.send(next).is_err() || last {
+                    return;
+                }
+            }
+        });
+        loop {
+            match full_rx.recv() {
+                Ok(Ok(Some(batch))) => {
+                    process(&batch)?;
+                    // The reader may have stopped after an error it already sent.
+                    let _ = free_tx.send(batch);
+                }
+                Ok(Ok(None)) => return Ok(()),
+                Ok(Err(e)) => return Err(e),
+                Err(_) => return Err(Error::Usage("the row reader stopped unexpectedly".into())),
+            }
+        }
+    })
+}
+
+fn decode_row(
+    decoder: &Decoder<'_>,
+    header: &CandidateHeader,
+    row: u32,
+    frames: &[u16],
+    bit_depth: u8,
+    scratch: &mut [f32],
+    pixels: &mut [HostCandidates],
+) -> Result<DecodedRow> {
+    let input = Row {
+        frames,
+        width: pixels.len(),
+        bit_depth,
+        column_limits: None,
+    };
+    decoder
+        .decode_row(&input, scratch, pixels)
+        .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
+    let mut record = Vec::new();
+    candidate_file::encode_row(header, row, pixels, &mut record)
+        .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
+    let mut decoded = DecodedRow {
+        row,
+        record,
+        strongest: Vec::with_capacity(pixels.len()),
+        lit_pixels: 0,
+        candidates: 0,
+        saturated_pixels: 0,
+        truncated_pixels: 0,
+    };
+    for p in pixels.iter() {
+        decoded
+            .strongest
+            .push(p.strongest().map_or(f32::NAN, |c| c.column));
+        decoded.lit_pixels += !p.candidates.is_empty() as u32;
+        decoded.candidates += p.candidates.len() as u32;
+        decoded.saturated_pixels += p.flags.contains(PixelFlags::SATURATED) as u32;
+        decoded.truncated_pixels += p.flags.contains(PixelFlags::TRUNCATED) as u32;
+    }
+    Ok(decoded)
+}
+
+/// Decodes `capture` into the folder `out`: the candidate file ([`CANDIDATE_FILE_NAME`]), the
+/// strongest-candidate column map as a float TIFF ([`COLUMN_TIFF_NAME`]) and its preview
+/// ([`COLUMN_PREVIEW_NAME`]). The folder appears whole or not at all.
+pub fn decode_to_dir(
+    plan: &ScanPlan,
+    capture: &Capture,
+    out: &Path,
+    replace: bool,
+    options: &DecodeOptions,
+    progress: &Progress,
+) -> Result<DecodeSummary> {
+    let staged = StagedDir::create(out, replace)?;
+    let summary = decode_into(plan, capture, &staged, options, progress)?;
+    staged.commit()?;
+    Ok(summary)
+}
+
+fn decode_into(
+    plan: &ScanPlan,
+    capture: &Capture,
+    staged: &StagedDir,
+    options: &DecodeOptions,
+    progress: &Progress,
+) -> Result<DecodeSummary> {
+    let candidates_path = staged.file(CANDIDATE_FILE_NAME);
+    let file =
+        std::fs::File::create(&candidates_path).map_err(|e| Error::io(&candidates_path, e))?;
+    let header = candidate_header(plan, capture.width(), capture.height());
+    let io = |e| Error::io(staged.target().join(CANDIDATE_FILE_NAME), e);
+    let mut writer = CandidateWriter::new(std::io::BufWriter::with_capacity(1 << 20, file), header)
+        .map_err(io)?;
+    let mut map = ColumnMap::new(capture.width(), capture.height());
+    let summary = decode_capture(plan, capture, options, progress, |row| {
+        writer.write_record(row.row, &row.record).map_err(io)?;
+        map.set_row_columns(row.row, &row.strongest);
+        Ok(())
+    })?;
+    let out = writer.finish().map_err(io)?;
+    let file = out.into_inner().map_err(|e| io(e.into_error()))?;
+    file.sync_all().map_err(io)?;
+    map.write_tiff(&staged.file(COLUMN_TIFF_NAME))?;
+    map.write_preview(&staged.file(COLUMN_PREVIEW_NAME), plan.projector_columns)?;
+    Ok(summary)
+}

@@ -1,0 +1,440 @@
+//! Grey-level image files: PNG and TIFF, 8- or 16-bit, read by bands of rows and written whole;
+//! 32-bit float TIFF for column maps; 8-bit RGB PNG for pictures.
+//!
+//! Reading a band decodes only what it must: a PNG is decoded row by row up to the band's last
+//! row (the rows above it are decompressed and dropped, since PNG rows depend on their
+//! predecessors), a stripped TIFF only the strips that overlap the band.
+
+use std::fmt;
+use std::fs::File;
+use std::io::{BufReader, Seek, Write};
+use std::ops::Range;
+use std::path::Path;
+
+/// Container format of an image file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// PNG.
+    Png,
+    /// TIFF.
+    Tiff,
+}
+
+impl ImageFormat {
+    /// The format a file extension names (`png`, `tif`, `tiff`; any case).
+    pub fn from_extension(ext: &str) -> Option<Self> {
+        match ext.to_ascii_lowercase().as_str() {
+            "png" => Some(ImageFormat::Png),
+            "tif" | "tiff" => Some(ImageFormat::Tiff),
+            _ => None,
+        }
+    }
+
+    /// The format of `path`, from its extension.
+    pub fn of(path: &Path) -> Option<Self> {
+        Self::from_extension(path.extension()?.to_str()?)
+    }
+}
+
+/// Size and sample depth of a grey image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageInfo {
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Bits per sample of the container: 8 or 16.
+    pub container_bits: u8,
+}
+
+/// Why an image could not be read or written (the caller adds the file name).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ImageError(pub String);
+
+impl fmt::Display for ImageError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ImageError {}
+
+fn err(message: impl fmt::Display) -> ImageError {
+    ImageError(message.to_string())
+}
+
+fn open(path: &Path) -> Result<BufReader<File>, ImageError> {
+    let file = File::open(path).map_err(err)?;
+    Ok(BufReader::with_capacity(1 << 16, file))
+}
+
+fn format_of(path: &Path) -> Result<ImageFormat, ImageError> {
+    ImageFormat::of(path).ok_or_else(|| err("not a .png, .tif or .tiff file"))
+}
+
+/// Reads the size and depth of a grey image without decoding its pixels.
+pub fn probe(path: &Path) -> Result<ImageInfo, ImageError> {
+    match format_of(path)? {
+        ImageFormat::Png => {
+            let reader = png_reader(path)?;
+            png_info(reader.info())
+        }
+        ImageFormat::Tiff => {
+            let mut decoder = tiff_decoder(path)?;
+            tiff_info(&mut decoder)
+        }
+    }
+}
+
+/// Decodes rows `rows` of a grey image, handing each to `row(y, samples)` in order. The image
+/// must have the size and depth `expected` (checked first).
+pub fn read_rows(
+    path: &Path,
+    expected: &ImageInfo,
+    rows: Range<u32>,
+    mut row: impl FnMut(u32, &[u16]) -> Result<(), ImageError>,
+) -> Result<(), ImageError> {
+    if rows.end > expected.height || rows.start > rows.end {
+        return Err(err(format!(
+            "rows {}..{} are outside the image height {}",
+            rows.start, rows.end, expected.height
+        )));
+    }
+    let check = |info: ImageInfo| {
+        if info != *expected {
+            Err(err(format!(
+                "is {}x{} {}-bit, the stack's first image is {}x{} {}-bit",
+                info.width,
+                info.height,
+                info.container_bits,
+                expected.width,
+                expected.height,
+                expected.container_bits
+            )))
+        } else {
+            Ok(())
+        }
+    };
+    let mut samples = vec![0u16; expected.width as usize];
+    match format_of(path)? {
+        ImageFormat::Png => {
+            let mut reader = png_reader(path)?;
+            check(png_info(reader.info())?)?;
+            let sixteen = expected.container_bits == 16;
+            if reader.info().interlaced {
+                // Adam7 rows arrive in passes: decode the whole image.
+                let mut buf = vec![
+                    0u8;
+                    reader
+                        .output_buffer_size()
+                        .ok_or_else(|| err("image too large"))?
+                ];
+                reader.next_frame(&mut buf).map_err(err)?;
+                let stride = buf.len() / expected.height as usize;
+                for y in rows {
+                    let line = &buf[y as usize * stride..(y as usize + 1) * stride];
+                    unpack(line, sixteen, &mut samples);
+                    row(y, &samples)?;
+                }
+                return Ok(());
+            }
+            for y in 0..rows.end {
+                let line = reader
+                    .next_row()
+                    .map_err(err)?
+                    .ok_or_else(|| err(format!("image data ends before row {y}")))?;
+                if y >= rows.start {
+                    unpack(line.data(), sixteen, &mut samples);
+                    row(y, &samples)?;
+                }
+            }
+            Ok(())
+        }
+        ImageFormat::Tiff => {
+            let mut decoder = tiff_decoder(path)?;
+            check(tiff_info(&mut decoder)?)?;
+            let w = expected.width as usize;
+            let (chunk_w, rows_per_strip) = decoder.chunk_dimensions();
+            let stripped = matches!(decoder.get_chunk_type(), tiff::decoder::ChunkType::Strip)
+                && chunk_w as usize == w
+                && rows_per_strip > 0;
+            if !stripped {
+                let image = decoder.read_image().map_err(err)?;
+                let data = tiff_samples(&image)?;
+                for y in rows {
+                    let line = &data[y as usize * w..(y as usize + 1) * w];
+                    row(y, line)?;
+                }
+                return Ok(());
+            }
+            let mut y = rows.start;
+            while y < rows.end {
+                let strip = y / rows_per_strip;
+                let chunk = decoder.read_chunk(strip).map_err(err)?;
+                let data = tiff_samples(&chunk)?;
+                let first = strip * rows_per_strip;
+                let strip_rows = (data.len() / w) as u32;
+                while y < rows.end && y < first + strip_rows {
+                    let at = (y - first) as usize * w;
+                    row(y, &data[at..at + w])?;
+                    y += 1;
+                }
+                if strip_rows == 0 {
+                    return Err(err(format!("strip {strip} is empty")));
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Decodes a whole grey image: its info and its samples, row-major.
+pub fn read_image(path: &Path) -> Result<(ImageInfo, Vec<u16>), ImageError> {
+    let info = probe(path)?;
+    let mut data = Vec::with_capacity(info.width as usize * info.height as usize);
+    read_rows(path, &info, 0..info.height, |_, samples| {
+        data.extend_from_slice(samples);
+        Ok(())
+    })?;
+    Ok((info, data))
+}
+
+fn unpack(line: &[u8], sixteen: bool, out: &mut [u16]) {
+    if sixteen {
+        for (o, b) in out.iter_mut().zip(line.chunks_exact(2)) {
+            *o = u16::from_be_bytes([b[0], b[1]]);
+        }
+    } else {
+        for (o, &b) in out.iter_mut().zip(line) {
+            *o = b as u16;
+        }
+    }
+}
+
+fn png_reader(path: &Path) -> Result<png::Reader<BufReader<File>>, ImageError> {
+    let mut decoder = png::Decoder::new(open(path)?);
+    decoder.set_transformations(png::Transformations::IDENTITY);
+    decoder.read_info().map_err(err)
+}
+
+fn png_info(info: &png::Info<'_>) -> Result<ImageInfo, ImageError> {
+    if info.color_type != png::ColorType::Grayscale {
+        return Err(err(format!(
+            "is a {:?} PNG; captures must be single-channel grey images",
+            info.color_type
+        )));
+    }
+    let container_bits = match info.bit_depth {
+        png::BitDepth::Eight => 8,
+        png::BitDepth::Sixteen => 16,
+        d => {
+            return Err(err(format!(
+                "is a {}-bit PNG; only 8- and 16-bit samples are read",
+                d as u8
+            )))
+        }
+    };
+    Ok(ImageInfo {
+        width: info.width,
+        height: info.height,
+        container_bits,
+    })
+}
+
+fn tiff_decoder(path: &Path) -> Result<tiff::decoder::Decoder<BufReader<File>>, ImageError> {
+    tiff::decoder::Decoder::new(open(path)?).map_err(err)
+}
+
+fn tiff_info(
+    decoder: &mut tiff::decoder::Decoder<BufReader<File>>,
+) -> Result<ImageInfo, ImageError> {
+    let (width, height) = decoder.dimensions().map_err(err)?;
+    let container_bits = match decoder.colortype().map_err(err)? {
+        tiff::ColorType::Gray(8) => 8,
+        tiff::ColorType::Gray(16) => 16,
+        c => {
+            return Err(err(format!(
+                "is a {c:?} TIFF; captures must be 8- or 16-bit single-channel grey images"
+            )))
+        }
+    };
+    Ok(ImageInfo {
+        width,
+        height,
+        container_bits,
+    })
+}
+
+fn tiff_samples(
+    result: &tiff::decoder::DecodingResult,
+) -> Result<std::borrow::Cow<'_, [u16]>, ImageError> {
+    use tiff::decoder::DecodingResult;
+    match result {
+        DecodingResult::U16(v) => Ok(std::borrow::Cow::Borrowed(v)),
+        DecodingResult::U8(v) => Ok(std::borrow::Cow::Owned(
+            v.iter().map(|&b| b as u16).collect(),
+        )),
+        _ => Err(err("TIFF samples are neither 8- nor 16-bit unsigned")),
+    }
+}
+
+/// Writes an 8-bit grey PNG.
+pub fn write_png_gray8(
+    out: impl Write,
+    width: u32,
+    height: u32,
+    samples: &[u8],
+) -> Result<(), ImageError> {
+    write_png(
+        out,
+        width,
+        height,
+        png::ColorType::Grayscale,
+        png::BitDepth::Eight,
+        samples,
+    )
+}
+
+/// Writes a 16-bit grey PNG.
+pub fn write_png_gray16(
+    out: impl Write,
+    width: u32,
+    height: u32,
+    samples: &[u16],
+) -> Result<(), ImageError> {
+    let bytes: Vec<u8> = samples.iter().flat_map(|s| s.to_be_bytes()).collect();
+    write_png(
+        out,
+        width,
+        height,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &bytes,
+    )
+}
+
+/// Writes an 8-bit RGB PNG (pictures, previews).
+pub fn write_png_rgb8(
+    out: impl Write,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> Result<(), ImageError> {
+    write_png(
+        out,
+        width,
+        height,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        rgb,
+    )
+}
+
+fn write_png(
+    out: impl Write,
+    width: u32,
+    height: u32,
+    color: png::ColorType,
+    depth: png::BitDepth,
+    bytes: &[u8],
+) -> Result<(), ImageError> {
+    let mut encoder = png::Encoder::new(out, width, height);
+    encoder.set_color(color);
+    encoder.set_depth(depth);
+    encoder.set_compression(png::Compression::Fast);
+    let mut writer = encoder.write_header().map_err(err)?;
+    writer.write_image_data(bytes).map_err(err)?;
+    writer.finish().map_err(err)
+}
+
+/// Writes a 16-bit grey TIFF.
+pub fn write_tiff_gray16(
+    out: impl Write + Seek,
+    width: u32,
+    height: u32,
+    samples: &[u16],
+) -> Result<(), ImageError> {
+    let mut encoder = tiff::encoder::TiffEncoder::new(out).map_err(err)?;
+    encoder
+        .write_image::<tiff::encoder::colortype::Gray16>(width, height, samples)
+        .map_err(err)
+}
+
+/// Writes an 8-bit grey TIFF.
+pub fn write_tiff_gray8(
+    out: impl Write + Seek,
+    width: u32,
+    height: u32,
+    samples: &[u8],
+) -> Result<(), ImageError> {
+    let mut encoder = tiff::encoder::TiffEncoder::new(out).map_err(err)?;
+    encoder
+        .write_image::<tiff::encoder::colortype::Gray8>(width, height, samples)
+        .map_err(err)
+}
+
+/// Writes a 32-bit float grey TIFF.
+pub fn write_tiff_f32(
+    out: impl Write + Seek,
+    width: u32,
+    height: u32,
+    samples: &[f32],
+) -> Result<(), ImageError> {
+    let mut encoder = tiff::encoder::TiffEncoder::new(out).map_err(err)?;
+    encoder
+        .write_image::<tiff::encoder::colortype::Gray32Float>(width, height, samples)
+        .map_err(err)
+}
+
+/// Reads a 32-bit float grey TIFF (column maps).
+pub fn read_tiff_f32(path: &Path) -> Result<(u32, u32, Vec<f32>), ImageError> {
+    let mut decoder = tiff_decoder(path)?;
+    let (w, h) = decoder.dimensions().map_err(err)?;
+    match decoder.read_image().map_err(err)? {
+        tiff::decoder::DecodingResult::F32(v) => Ok((w, h, v)),
+        _ => Err(err("not a 32-bit float TIFF")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bands_of_every_format_read_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (7u32, 23u32);
+        let data16: Vec<u16> = (0..w * h).map(|i| (i * 2731 % 65536) as u16).collect();
+        let data8: Vec<u8> = (0..w * h).map(|i| (i * 37 % 256) as u8).collect();
+        let cases: Vec<(&str, Vec<u16>)> = vec![
+            ("a16.png", data16.clone()),
+            ("a8.png", data8.iter().map(|&b| b as u16).collect()),
+            ("a16.tif", data16.clone()),
+            ("a8.tiff", data8.iter().map(|&b| b as u16).collect()),
+        ];
+        for (name, expected) in cases {
+            let path = dir.path().join(name);
+            let mut f = std::fs::File::create(&path).unwrap();
+            match (name.contains("16"), ImageFormat::of(&path).unwrap()) {
+                (true, ImageFormat::Png) => write_png_gray16(&mut f, w, h, &data16).unwrap(),
+                (false, ImageFormat::Png) => write_png_gray8(&mut f, w, h, &data8).unwrap(),
+                (true, ImageFormat::Tiff) => write_tiff_gray16(&mut f, w, h, &data16).unwrap(),
+                (false, ImageFormat::Tiff) => write_tiff_gray8(&mut f, w, h, &data8).unwrap(),
+            }
+            drop(f);
+            let info = probe(&path).unwrap();
+            assert_eq!((info.width, info.height), (w, h));
+            for band in [0..1, 3..9, 20..23, 0..23] {
+                let mut got = Vec::new();
+                read_rows(&path, &info, band.clone(), |y, s| {
+                    assert_eq!(y as usize, band.start as usize + got.len() / w as usize);
+                    got.extend_from_slice(s);
+                    Ok(())
+                })
+                .unwrap();
+                let range = band.start as usize * w as usize..band.end as usize * w as usize;
+                assert_eq!(got, expected[range], "{name} {band:?}");
+            }
+        }
+    }
+}

@@ -1,0 +1,580 @@
+//! Pictures of what the decoder sees (people would rather look than read):
+//!
+//! - one pixel: its fringe samples against frequency (the f-domain) and the magnitude of its
+//!   spectrum against column (the c-domain), with the peaks the decoder found marked — paper
+//!   Figs. 3 and 8; for EFSM one pair of panels per group plus its mask levels;
+//! - one row: the c-domain magnitude of every pixel of a camera row as an image, pixel `x`
+//!   across, column down — paper Fig. 4e, where direct and indirect light show up as separate
+//!   lines.
+//!
+//! The numbers come from `fsm_core`'s decoder ([`Decoder::spectrum`], [`Decoder::peaks`],
+//! [`Decoder::decode_pixel`]); this module only draws them (`plotters`, bitmap backend, PNG).
+
+use std::path::Path;
+use std::sync::Once;
+
+use fsm_core::{Decoder, Group, Method, Row, ScanPlan};
+use plotters::coord::ReverseCoordTranslate;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use crate::candidate_file::HostCandidates;
+use crate::capture::Capture;
+use crate::error::{Error, Result};
+use crate::image_files;
+use crate::outputs::StagedFile;
+
+/// One group's view of a pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupView {
+    /// The group (BFSM: group 1).
+    pub group: Group,
+    /// `f_m` of each fringe, cycles per column.
+    pub frequencies: Vec<f64>,
+    /// The fringe samples, DN.
+    pub samples: Vec<u16>,
+    /// Column (BFSM) or local column `c̃` (EFSM) of each bin.
+    pub bin_columns: Vec<f32>,
+    /// `|X_k|` of each bin.
+    pub magnitudes: Vec<f32>,
+    /// Peaks found: (span-domain column, magnitude at the peak, amplitude DN).
+    pub peaks: Vec<(f32, f32, f32)>,
+    /// EFSM: each mask's sample, DN (empty for BFSM).
+    pub masks: Vec<u16>,
+}
+
+/// Everything the pixel plot shows.
+#[derive(Clone, Debug)]
+pub struct PixelView {
+    /// Camera pixel.
+    pub x: u32,
+    /// Camera row.
+    pub y: u32,
+    /// Dark reference sample, DN.
+    pub dark: Option<u16>,
+    /// White reference sample, DN.
+    pub white: Option<u16>,
+    /// Per group.
+    pub groups: Vec<GroupView>,
+    /// The decoder's candidates for the pixel.
+    pub candidates: HostCandidates,
+}
+
+fn decoder_tables(plan: &ScanPlan) -> Vec<f32> {
+    vec![0.0; Decoder::tables_len(plan)]
+}
+
+fn new_decoder<'t>(plan: &ScanPlan, tables: &'t mut [f32]) -> Result<Decoder<'t>> {
+    Decoder::new(plan, tables)
+        .map_err(|e| Error::Usage(format!("cannot decode with this plan: {e}")))
+}
+
+/// What the decoder sees at pixel `x` of a temporal row (`frames[i·W + x]`).
+pub fn pixel_view(
+    plan: &ScanPlan,
+    frames: &[u16],
+    width: usize,
+    bit_depth: u8,
+    x: u32,
+    y: u32,
+) -> Result<PixelView> {
+    let mut tables = decoder_tables(plan);
+    let decoder = new_decoder(plan, &mut tables)?;
+    let row = Row {
+        frames,
+        width,
+        bit_depth,
+        column_limits: None,
+    };
+    let xi = x as usize;
+    let row_error = |e: fsm_core::RowError| Error::Usage(format!("pixel ({x}, {y}): {e}"));
+    let mut scratch = vec![0.0f32; Decoder::scratch_len(plan)];
+    let sample = |i: usize| frames[i * width + xi];
+    let mut groups = Vec::new();
+    for group in plan.groups() {
+        let spectrum = decoder
+            .spectrum(&row, xi, group, &mut scratch)
+            .map_err(row_error)?;
+        let magnitudes: Vec<f32> = (0..spectrum.len()).map(|k| spectrum.magnitude(k)).collect();
+        let bin_columns = (0..magnitudes.len())
+            .map(|k| plan.bin_column(k as f32))
+            .collect();
+        let peaks = decoder
+            .peaks(&row, xi, group, &mut scratch)
+            .map_err(row_error)?;
+        let start = plan.fringe_start(group);
+        let masks = match plan.method {
+            Method::Bfsm => Vec::new(),
+            Method::Efsm(_) => {
+                let m0 = plan.mask_start(group);
+                (0..plan.mask_count(group) as usize)
+                    .map(|i| sample(m0 + i))
+                    .collect()
+            }
+        };
+        groups.push(GroupView {
+            group,
+            frequencies: (0..plan.band.count).map(|m| plan.frequency(m)).collect(),
+            samples: (0..plan.band.count as usize)
+                .map(|m| sample(start + m))
+                .collect(),
+            bin_columns,
+            magnitudes,
+            peaks: peaks
+                .peaks
+                .iter()
+                .map(|p| (p.column, p.magnitude, p.amplitude))
+                .collect(),
+            masks,
+        });
+    }
+    let mut candidates = HostCandidates::new();
+    decoder
+        .decode_pixel(&row, xi, &mut scratch, &mut candidates)
+        .map_err(row_error)?;
+    Ok(PixelView {
+        x,
+        y,
+        dark: plan.dark_index().map(sample),
+        white: plan.white_index().map(sample),
+        groups,
+        candidates,
+    })
+}
+
+/// The c-domain of a whole row: one spectrum per pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RowMap {
+    /// Camera row.
+    pub y: u32,
+    /// The group shown.
+    pub group: Group,
+    /// Pixels `W`.
+    pub width: usize,
+    /// Column (or `c̃`) of each bin.
+    pub bin_columns: Vec<f32>,
+    /// `|X_k|` of pixel `x` at bin `k`: `magnitudes[x·bins + k]`.
+    pub magnitudes: Vec<f32>,
+}
+
+impl RowMap {
+    /// Bins per pixel.
+    pub fn bins(&self) -> usize {
+        self.bin_columns.len()
+    }
+
+    /// The spectrum of pixel `x`.
+    pub fn spectrum(&self, x: usize) -> &[f32] {
+        &self.magnitudes[x * self.bins()..(x + 1) * self.bins()]
+    }
+}
+
+/// The spectra of every pixel of a temporal row for `group`.
+pub fn row_map(
+    plan: &ScanPlan,
+    frames: &[u16],
+    width: usize,
+    bit_depth: u8,
+    y: u32,
+    group: Group,
+) -> Result<RowMap> {
+    if group.index() >= plan.group_count() {
+        return Err(Error::Usage(format!(
+            "the plan has no group {}",
+            group.number()
+        )));
+    }
+    let mut tables = decoder_tables(plan);
+    let decoder = new_decoder(plan, &mut tables)?;
+    let row = Row {
+        frames,
+        width,
+        bit_depth,
+        column_limits: None,
+    };
+    let bins = plan.bin_count();
+    let mut scratch = vec![0.0f32; Decoder::scratch_len(plan)];
+    let mut magnitudes = Vec::with_capacity(width * bins);
+    for x in 0..width {
+        let spectrum = decoder
+            .spectrum(&row, x, group, &mut scratch)
+            .map_err(|e| Error::Usage(format!("row {y}: {e}")))?;
+        magnitudes.extend((0..bins).map(|k| spectrum.magnitude(k)));
+    }
+    Ok(RowMap {
+        y,
+        group,
+        width,
+        bin_columns: (0..bins).map(|k| plan.bin_column(k as f32)).collect(),
+        magnitudes,
+    })
+}
+
+/// Plots pixel `(x, y)` of `capture` into the PNG `out`; returns what was plotted.
+pub fn inspect_pixel(
+    plan: &ScanPlan,
+    capture: &Capture,
+    x: u32,
+    y: u32,
+    out: &Path,
+) -> Result<PixelView> {
+    if x >= capture.width() || y >= capture.height() {
+        return Err(Error::Usage(format!(
+            "pixel ({x}, {y}) is outside the {}x{} images of the {}",
+            capture.width(),
+            capture.height(),
+            capture.describe()
+        )));
+    }
+    let mut frames = vec![0u16; capture.row_len()];
+    capture.read_row(y, &mut frames)?;
+    let view = pixel_view(
+        plan,
+        &frames,
+        capture.width() as usize,
+        capture.bit_depth(),
+        x,
+        y,
+    )?;
+    plot_pixel(plan, &view, out)?;
+    Ok(view)
+}
+
+/// Renders the c-domain map of row `y` of `capture` for `group` into the PNG `out`.
+pub fn inspect_row(
+    plan: &ScanPlan,
+    capture: &Capture,
+    y: u32,
+    group: Group,
+    out: &Path,
+) -> Result<RowMap> {
+    let mut frames = vec![0u16; capture.row_len()];
+    capture.read_row(y, &mut frames)?;
+    let map = row_map(
+        plan,
+        &frames,
+        capture.width() as usize,
+        capture.bit_depth(),
+        y,
+        group,
+    )?;
+    plot_row_map(plan, &map, out)?;
+    Ok(map)
+}
+
+const FONT: &str = "sans-serif";
+
+/// plotters draws text with a registered font; DejaVu Sans is compiled in so that pictures
+/// need no system fonts.
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+fn draw_error(out: &Path) -> impl Fn(String) -> Error + '_ {
+    move |message| Error::Encode {
+        path: out.to_path_buf(),
+        message: format!("drawing failed: {message}"),
+    }
+}
+
+/// Renders `draw` on a white `width × height` canvas and writes it as PNG, whole or not at all.
+fn render_png(
+    out: &Path,
+    (width, height): (u32, u32),
+    draw: impl FnOnce(
+        &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    ) -> std::result::Result<(), String>,
+) -> Result<()> {
+    register_font();
+    let mut rgb = vec![255u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE)
+            .map_err(|e| draw_error(out)(e.to_string()))?;
+        draw(&root).map_err(draw_error(out))?;
+        root.present().map_err(|e| draw_error(out)(e.to_string()))?;
+    }
+    let mut file = StagedFile::create(out)?;
+    image_files::write_png_rgb8(file.writer(), width, height, &rgb).map_err(|e| Error::Encode {
+        path: out.to_path_buf(),
+        message: e.0,
+    })?;
+    file.commit()
+}
+
+fn span_label(plan: &ScanPlan) -> &'static str {
+    match plan.method {
+        Method::Bfsm => "projector column c",
+        Method::Efsm(_) => "local column c~ (within a block)",
+    }
+}
+
+/// Draws the pixel view: per group the f-domain samples, the c-domain magnitude with the
+/// peaks marked, and (EFSM) the mask levels.
+pub fn plot_pixel(plan: &ScanPlan, view: &PixelView, out: &Path) -> Result<()> {
+    let efsm = !matches!(plan.method, Method::Bfsm);
+    let panels_per_group = if efsm { 3 } else { 2 };
+    let rows = panels_per_group * view.groups.len();
+    let (width, height) = (1200u32, 60 + 330 * rows as u32);
+    let candidates: Vec<String> = view
+        .candidates
+        .candidates
+        .iter()
+        .map(|c| format!("{:.2} ({:.0} DN)", c.column, c.amplitude))
+        .collect();
+    let title = format!(
+        "pixel ({}, {}) — candidates: {}",
+        view.x,
+        view.y,
+        if candidates.is_empty() {
+            "none".to_owned()
+        } else {
+            candidates.join(", ")
+        }
+    );
+    render_png(out, (width, height), |root| {
+        let e = |e: &dyn std::fmt::Display| e.to_string();
+        let (top, body) = root.split_vertically(50);
+        top.draw(&Text::new(title.as_str(), (20, 15), (FONT, 22).into_font()))
+            .map_err(|x| e(&x))?;
+        let areas = body.split_evenly((rows, 1));
+        for (g, gv) in view.groups.iter().enumerate() {
+            let suffix = if efsm {
+                format!(" — group {}", gv.group.number())
+            } else {
+                String::new()
+            };
+            let base = g * panels_per_group;
+            // f-domain
+            let f_max = gv.frequencies.last().copied().unwrap_or(0.5) * 1.02;
+            let s_max = gv
+                .samples
+                .iter()
+                .copied()
+                .chain(view.white)
+                .max()
+                .unwrap_or(1)
+                .max(1) as f64
+                * 1.05;
+            let mut chart = ChartBuilder::on(&areas[base])
+                .caption(format!("fringe samples (f-domain){suffix}"), (FONT, 18))
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(0.0..f_max, 0.0..s_max)
+                .map_err(|x| e(&x))?;
+            chart
+                .configure_mesh()
+                .x_desc("frequency f (cycles per column)")
+                .y_desc("sample (DN)")
+                .label_style((FONT, 14))
+                .draw()
+                .map_err(|x| e(&x))?;
+            let points: Vec<(f64, f64)> = gv
+                .frequencies
+                .iter()
+                .zip(&gv.samples)
+                .map(|(&f, &s)| (f, s as f64))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(points.iter().copied(), BLUE.mix(0.6)))
+                .map_err(|x| e(&x))?;
+            if points.len() <= 256 {
+                chart
+                    .draw_series(points.iter().map(|&p| Circle::new(p, 2, BLUE.filled())))
+                    .map_err(|x| e(&x))?;
+            }
+            for (level, label, color) in [(view.dark, "dark", BLACK), (view.white, "white", RED)] {
+                if let Some(level) = level {
+                    let level = level as f64;
+                    chart
+                        .draw_series(LineSeries::new(
+                            [(0.0, level), (f_max, level)],
+                            color.mix(0.5),
+                        ))
+                        .map_err(|x| e(&x))?
+                        .label(format!("{label} reference ({level:.0} DN)"))
+                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color));
+                }
+            }
+            if view.dark.is_some() || view.white.is_some() {
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .label_font((FONT, 14))
+                    .draw()
+                    .map_err(|x| e(&x))?;
+            }
+            // c-domain
+            let c_max = gv.bin_columns.last().copied().unwrap_or(1.0) as f64;
+            let m_max = gv
+                .magnitudes
+                .iter()
+                .copied()
+                .fold(0.0f32, f32::max)
+                .max(1e-3) as f64
+                * 1.12;
+            let mut chart = ChartBuilder::on(&areas[base + 1])
+                .caption(
+                    format!("spectrum magnitude (c-domain), peaks marked{suffix}"),
+                    (FONT, 18),
+                )
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(0.0..c_max, 0.0..m_max)
+                .map_err(|x| e(&x))?;
+            chart
+                .configure_mesh()
+                .x_desc(span_label(plan))
+                .y_desc("|X| (DN)")
+                .label_style((FONT, 14))
+                .draw()
+                .map_err(|x| e(&x))?;
+            chart
+                .draw_series(LineSeries::new(
+                    gv.bin_columns
+                        .iter()
+                        .zip(&gv.magnitudes)
+                        .map(|(&c, &m)| (c as f64, m as f64)),
+                    BLUE,
+                ))
+                .map_err(|x| e(&x))?;
+            for &(column, magnitude, amplitude) in &gv.peaks {
+                let p = (column as f64, magnitude as f64);
+                chart
+                    .draw_series([Circle::new(p, 6, RED.stroke_width(2))])
+                    .map_err(|x| e(&x))?;
+                // Label beside the marker, on the side with room.
+                let right_half = column as f64 > 0.75 * c_max;
+                let (dx, anchor) = if right_half {
+                    (-0.012 * c_max, HPos::Right)
+                } else {
+                    (0.012 * c_max, HPos::Left)
+                };
+                let style = (FONT, 14)
+                    .into_font()
+                    .color(&RED)
+                    .pos(Pos::new(anchor, VPos::Center));
+                chart
+                    .draw_series([Text::new(
+                        format!("{column:.2} ({amplitude:.0} DN)"),
+                        (column as f64 + dx, (magnitude as f64).min(m_max * 0.95)),
+                        style,
+                    )])
+                    .map_err(|x| e(&x))?;
+            }
+            // masks
+            if efsm {
+                let n = gv.masks.len().max(1);
+                let top = gv
+                    .masks
+                    .iter()
+                    .copied()
+                    .chain(view.white)
+                    .max()
+                    .unwrap_or(1)
+                    .max(1) as f64
+                    * 1.05;
+                let mut chart = ChartBuilder::on(&areas[base + 2])
+                    .caption(format!("mask samples by block{suffix}"), (FONT, 18))
+                    .margin(10)
+                    .x_label_area_size(40)
+                    .y_label_area_size(70)
+                    .build_cartesian_2d(0.0..n as f64, 0.0..top)
+                    .map_err(|x| e(&x))?;
+                chart
+                    .configure_mesh()
+                    .x_desc("mask (block b)")
+                    .y_desc("sample (DN)")
+                    .label_style((FONT, 14))
+                    .draw()
+                    .map_err(|x| e(&x))?;
+                chart
+                    .draw_series(gv.masks.iter().enumerate().map(|(i, &s)| {
+                        Rectangle::new(
+                            [(i as f64 + 0.1, 0.0), (i as f64 + 0.9, s as f64)],
+                            GREEN.mix(0.7).filled(),
+                        )
+                    }))
+                    .map_err(|x| e(&x))?;
+                if let Some(dark) = view.dark {
+                    chart
+                        .draw_series(LineSeries::new(
+                            [(0.0, dark as f64), (n as f64, dark as f64)],
+                            BLACK,
+                        ))
+                        .map_err(|x| e(&x))?;
+                }
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Draws the row map: pixel `x` across, column down, colour = the pixel's magnitude scaled to
+/// its own maximum (so dim and bright pixels show alike; indirect light appears as a weaker
+/// second line).
+pub fn plot_row_map(plan: &ScanPlan, map: &RowMap, out: &Path) -> Result<()> {
+    let (width, height) = (1200u32, 800u32);
+    let c_max = map.bin_columns.last().copied().unwrap_or(1.0) as f64;
+    let bin_width = plan.bin_width() as f64;
+    let suffix = if plan.group_count() > 1 {
+        format!(", group {}", map.group.number())
+    } else {
+        String::new()
+    };
+    let peaks: Vec<f32> = (0..map.width)
+        .map(|x| map.spectrum(x).iter().copied().fold(0.0f32, f32::max))
+        .collect();
+    render_png(out, (width, height), |root| {
+        let e = |e: &dyn std::fmt::Display| e.to_string();
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!(
+                    "c-domain of camera row {}{suffix} (each pixel scaled to its maximum)",
+                    map.y
+                ),
+                (FONT, 20),
+            )
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..map.width as f64, c_max..0.0)
+            .map_err(|x| e(&x))?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("camera pixel x")
+            .y_desc(span_label(plan))
+            .label_style((FONT, 14))
+            .draw()
+            .map_err(|x| e(&x))?;
+        let area = chart.plotting_area();
+        let (xr, yr) = area.get_pixel_range();
+        let spec = area.as_coord_spec().clone();
+        for py in yr {
+            for px in xr.clone() {
+                let Some((x, c)) = spec.reverse_translate((px, py)) else {
+                    continue;
+                };
+                let xi = (x.floor() as isize).clamp(0, map.width as isize - 1) as usize;
+                let k =
+                    ((c / bin_width).round() as isize).clamp(0, map.bins() as isize - 1) as usize;
+                let top = peaks[xi];
+                let v = if top > 0.0 {
+                    map.spectrum(xi)[k] / top
+                } else {
+                    0.0
+                };
+                let color = ViridisRGB.get_color_normalized(v.clamp(0.0, 1.0), 0.0, 1.0);
+                root.draw_pixel((px, py), &color).map_err(|x| e(&x))?;
+            }
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,263 @@
+//! Whole-or-nothing outputs (SPEC §6): everything is written under a temporary name in the
+//! target's own folder and renamed into place only once complete, so an error, a panic or a
+//! kill never leaves a partial file or folder where the output belongs.
+
+use std::ffi::OsString;
+use std::fs;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use tempfile::{NamedTempFile, TempDir};
+
+use crate::error::{Error, IoContext, Result};
+
+/// The folder a target lives in (`.` for a bare file name).
+fn parent_of(target: &Path) -> &Path {
+    match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// `.NAME.partial-` : temporary names are hidden and say what they will become.
+fn temp_prefix(target: &Path, tag: &str) -> OsString {
+    let mut prefix = OsString::from(".");
+    prefix.push(target.file_name().unwrap_or_else(|| "output".as_ref()));
+    prefix.push(tag);
+    prefix
+}
+
+/// A builder whose files and folders get the usual permissions (0666 / 0777 less the umask)
+/// rather than the private 0600 / 0700 of temporary files: they become the outputs.
+fn builder<'a>(prefix: &'a OsString, folder: bool) -> tempfile::Builder<'a, 'a> {
+    let mut b = tempfile::Builder::new();
+    b.prefix(prefix);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        b.permissions(fs::Permissions::from_mode(if folder {
+            0o777
+        } else {
+            0o666
+        }));
+    }
+    #[cfg(not(unix))]
+    let _ = folder;
+    b
+}
+
+/// A file being written; it appears at its target path only on [`StagedFile::commit`].
+/// Dropping it uncommitted deletes the temporary file.
+pub struct StagedFile {
+    writer: BufWriter<NamedTempFile>,
+    target: PathBuf,
+}
+
+impl StagedFile {
+    /// Starts writing `target` (its folder must exist).
+    pub fn create(target: &Path) -> Result<Self> {
+        let parent = parent_of(target);
+        let prefix = temp_prefix(target, ".partial-");
+        let temp = builder(&prefix, false).tempfile_in(parent).at(parent)?;
+        Ok(StagedFile {
+            writer: BufWriter::with_capacity(1 << 20, temp),
+            target: target.to_path_buf(),
+        })
+    }
+
+    /// The path the file will have once committed.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// The buffered writer (also `Seek`, for TIFF).
+    pub fn writer(&mut self) -> &mut BufWriter<NamedTempFile> {
+        &mut self.writer
+    }
+
+    /// Flushes and renames the file into place (replacing an existing file).
+    pub fn commit(self) -> Result<()> {
+        let target = self.target;
+        let temp = self
+            .writer
+            .into_inner()
+            .map_err(|e| Error::io(&target, e.into_error()))?;
+        temp.as_file().sync_all().at(&target)?;
+        temp.persist(&target)
+            .map_err(|e| Error::io(&target, e.error))?;
+        Ok(())
+    }
+}
+
+impl Write for StagedFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.writer.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.writer.flush()
+    }
+}
+
+/// Writes `bytes` to `target` whole or not at all.
+pub fn write_file(target: &Path, bytes: &[u8]) -> Result<()> {
+    let mut file = StagedFile::create(target)?;
+    file.write_all(bytes).at(target)?;
+    file.commit()
+}
+
+/// A folder being filled; it appears at its target path only on [`StagedDir::commit`].
+/// Dropping it uncommitted deletes the temporary folder and everything in it.
+pub struct StagedDir {
+    temp: TempDir,
+    target: PathBuf,
+    replace: bool,
+}
+
+impl StagedDir {
+    /// Starts filling `target`. A target that exists must be an empty folder, unless `replace`
+    /// is set: then it is replaced as a whole on commit. Checked now, before any work.
+    pub fn create(target: &Path, replace: bool) -> Result<Self> {
+        check_target(target, replace)?;
+        let parent = parent_of(target);
+        if !parent.is_dir() {
+            return Err(Error::io(
+                parent,
+                io::Error::new(
+                    io::ErrorKind::NotFound,
+                    "output folder's parent does not exist",
+                ),
+            ));
+        }
+        let prefix = temp_prefix(target, ".partial-");
+        let temp = builder(&prefix, true).tempdir_in(parent).at(parent)?;
+        Ok(StagedDir {
+            temp,
+            target: target.to_path_buf(),
+            replace,
+        })
+    }
+
+    /// The temporary folder files are written into.
+    pub fn path(&self) -> &Path {
+        self.temp.path()
+    }
+
+    /// Path of `name` inside the temporary folder.
+    pub fn file(&self, name: &str) -> PathBuf {
+        self.temp.path().join(name)
+    }
+
+    /// The folder the outputs will have once committed.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// Renames the folder into place.
+    pub fn commit(self) -> Result<PathBuf> {
+        check_target(&self.target, self.replace)?;
+        let target = self.target;
+        let mut old = None;
+        if target.exists() {
+            if is_empty_dir(&target)? {
+                fs::remove_dir(&target).at(&target)?;
+            } else {
+                // replace: move the old folder aside, then bring the new one in.
+                let aside = tempfile::Builder::new()
+                    .prefix(&temp_prefix(&target, ".old-"))
+                    .tempdir_in(parent_of(&target))
+                    .at(parent_of(&target))?
+                    .keep();
+                fs::remove_dir(&aside).at(&aside)?;
+                fs::rename(&target, &aside).at(&target)?;
+                old = Some(aside);
+            }
+        }
+        let staged = self.temp.keep();
+        if let Err(e) = fs::rename(&staged, &target) {
+            let _ = fs::remove_dir_all(&staged);
+            if let Some(old) = &old {
+                let _ = fs::rename(old, &target);
+            }
+            return Err(Error::io(&target, e));
+        }
+        if let Some(old) = old {
+            fs::remove_dir_all(&old).at(&old)?;
+        }
+        Ok(target)
+    }
+}
+
+fn is_empty_dir(path: &Path) -> Result<bool> {
+    Ok(fs::read_dir(path).at(path)?.next().is_none())
+}
+
+fn check_target(target: &Path, replace: bool) -> Result<()> {
+    match fs::metadata(target) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(Error::io(target, e)),
+        Ok(m) if !m.is_dir() => Err(Error::Usage(format!(
+            "{}: exists and is not a folder",
+            target.display()
+        ))),
+        Ok(_) if replace || is_empty_dir(target)? => Ok(()),
+        Ok(_) => Err(Error::Usage(format!(
+            "{}: folder exists and is not empty (choose another output folder, or --force to replace it)",
+            target.display()
+        ))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uncommitted_outputs_leave_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let file_target = dir.path().join("a.bin");
+        let mut f = StagedFile::create(&file_target).unwrap();
+        f.write_all(b"partial").unwrap();
+        drop(f);
+        let dir_target = dir.path().join("out");
+        let d = StagedDir::create(&dir_target, false).unwrap();
+        fs::write(d.file("x"), b"partial").unwrap();
+        drop(d);
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn committed_outputs_appear_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let file_target = dir.path().join("a.bin");
+        write_file(&file_target, b"whole").unwrap();
+        assert_eq!(fs::read(&file_target).unwrap(), b"whole");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = fs::metadata(&file_target).unwrap().permissions().mode() & 0o777;
+            // What a plain File::create gives under this process's umask.
+            let plain = dir.path().join("plain");
+            fs::write(&plain, b"").unwrap();
+            let expected = fs::metadata(&plain).unwrap().permissions().mode() & 0o777;
+            fs::remove_file(&plain).unwrap();
+            assert_eq!(
+                mode, expected,
+                "outputs get the usual permissions, not 0600"
+            );
+        }
+        let dir_target = dir.path().join("out");
+        let d = StagedDir::create(&dir_target, false).unwrap();
+        fs::write(d.file("x"), b"1").unwrap();
+        d.commit().unwrap();
+        assert_eq!(fs::read(dir_target.join("x")).unwrap(), b"1");
+        // A non-empty folder is refused without replace, replaced with it.
+        assert!(StagedDir::create(&dir_target, false).is_err());
+        let d = StagedDir::create(&dir_target, true).unwrap();
+        fs::write(d.file("y"), b"2").unwrap();
+        d.commit().unwrap();
+        assert!(!dir_target.join("x").exists());
+        assert_eq!(fs::read(dir_target.join("y")).unwrap(), b"2");
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+}

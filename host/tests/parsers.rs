@@ -1,0 +1,78 @@
+//! The remaining readers under arbitrary input: captured images (PNG/TIFF headers and data) and
+//! projector-response files never panic; damage is an error.
+
+use fsm_host::image_files;
+use fsm_host::projector_response::ProjectorResponse;
+use proptest::prelude::*;
+
+fn valid_png(width: u32, height: u32) -> Vec<u8> {
+    let data: Vec<u16> = (0..width * height)
+        .map(|i| (i * 977 % 4096) as u16)
+        .collect();
+    let mut out = Vec::new();
+    image_files::write_png_gray16(&mut out, width, height, &data).unwrap();
+    out
+}
+
+fn valid_tiff(width: u32, height: u32) -> Vec<u8> {
+    let data: Vec<u16> = (0..width * height)
+        .map(|i| (i * 977 % 4096) as u16)
+        .collect();
+    let mut out = std::io::Cursor::new(Vec::new());
+    image_files::write_tiff_gray16(&mut out, width, height, &data).unwrap();
+    out.into_inner()
+}
+
+fn read_everything(path: &std::path::Path) -> Result<(), String> {
+    let info = image_files::probe(path).map_err(|e| e.0)?;
+    // Bound the work a forged header can ask for.
+    if info.width as u64 * info.height as u64 > 1 << 20 {
+        return Ok(());
+    }
+    image_files::read_rows(path, &info, 0..info.height, |_, _| Ok(())).map_err(|e| e.0)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn damaged_images_never_panic(at in 0usize..4000, xor in 1u8..=255, cut in any::<bool>(), tiff in any::<bool>()) {
+        let dir = tempfile::tempdir().unwrap();
+        let (name, mut bytes) = if tiff { ("0000.tif", valid_tiff(17, 9)) } else { ("0000.png", valid_png(17, 9)) };
+        let at = at % bytes.len();
+        if cut { bytes.truncate(at) } else { bytes[at] ^= xor }
+        let path = dir.path().join(name);
+        std::fs::write(&path, &bytes).unwrap();
+        let _ = read_everything(&path);
+    }
+
+    #[test]
+    fn arbitrary_bytes_as_images_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..300), tiff in any::<bool>()) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(if tiff { "1.tiff" } else { "1.png" });
+        std::fs::write(&path, &bytes).unwrap();
+        prop_assert!(read_everything(&path).is_err());
+    }
+
+    #[test]
+    fn arbitrary_response_files_never_panic(text in ".{0,200}") {
+        if let Err(e) = ProjectorResponse::parse(&text) {
+            prop_assert!(!e.is_empty());
+        }
+    }
+
+    #[test]
+    fn arbitrary_response_tables_are_accepted_only_if_invertible(
+        input in proptest::collection::vec(0.0f64..1.0, 0..6),
+        output in proptest::collection::vec(-10.0f64..10.0, 0..6),
+    ) {
+        let list = |v: &[f64]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ");
+        let text = format!("format_version = 1\ninput = [0.0, {}, 1.0]\noutput = [{}]", list(&input), list(&output));
+        if let Ok(r) = ProjectorResponse::parse(&text) {
+            for i in 0..=10 {
+                let light = i as f64 / 10.0;
+                prop_assert!((r.light_for(r.code_for(light)) - light).abs() < 1e-9);
+            }
+        }
+    }
+}
