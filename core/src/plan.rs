@@ -259,30 +259,30 @@ impl fmt::Display for PlanError {
             ),
             PlanError::BlockWidthOdd { block_width } => write!(
                 f,
-                "block_width = {block_width}: cB must be even (group 2 is shifted by cB/2)"
+                "method.Efsm.block_width = {block_width}: cB must be even (group 2 is shifted by cB/2)"
             ),
             PlanError::BlockWidthRange { block_width, projector_columns } => write!(
                 f,
-                "block_width = {block_width}: cB must be at least 4 and below projector_columns = {projector_columns} (use BFSM otherwise)"
+                "method.Efsm.block_width = {block_width}: cB must be at least 4 and below projector_columns = {projector_columns} (use BFSM otherwise)"
             ),
             PlanError::BorderGuard { border_guard, max } => write!(
                 f,
-                "border_guard = {border_guard}: cg must lie in (0, cB/4] = (0, {max}]"
+                "method.Efsm.border_guard = {border_guard}: cg must lie in (0, cB/4] = (0, {max}]"
             ),
             PlanError::FirstHarmonicZero => {
-                write!(f, "first_harmonic = 0: f1 = 0 is a flat frame, use n1 >= 1")
+                write!(f, "band.first_harmonic = 0: f1 = 0 is a flat frame, use n1 >= 1")
             }
             PlanError::FrequencyStepAboveNyquist { period_columns, span_columns } => write!(
                 f,
-                "period_columns = {period_columns}: frequency step 1/{period_columns} is above Nyquist 1/(2*{span_columns}) (eq. 7 needs period_columns >= {})",
+                "band.period_columns = {period_columns}: frequency step 1/{period_columns} is above Nyquist 1/(2*{span_columns}) (eq. 7 needs band.period_columns >= {})",
                 2 * span_columns as u32
             ),
             PlanError::LastFrequencyAboveHalf { last_harmonic, period_columns } => write!(
                 f,
-                "last fringe frequency {last_harmonic}/{period_columns} is above 1/2 cycle per column; lower first_harmonic or count"
+                "last fringe frequency {last_harmonic}/{period_columns} is above 1/2 cycle per column; lower band.first_harmonic or band.count"
             ),
             PlanError::TooFewFringes { count, min } => {
-                write!(f, "count = {count}: at least {min} fringe patterns are needed")
+                write!(f, "band.count = {count}: at least {min} fringe patterns are needed")
             }
             PlanError::TransformSize { transform_size } => write!(
                 f,
@@ -290,25 +290,25 @@ impl fmt::Display for PlanError {
             ),
             PlanError::TransformShorterThanFringes { transform_size, count } => write!(
                 f,
-                "transform_size = {transform_size} is below the fringe count {count}: N >= M is required"
+                "transform_size = {transform_size} is below band.count = {count}: N >= M is required"
             ),
             PlanError::KernelTable { entries, max } => write!(
                 f,
-                "transform_size and period_columns need a kernel table of {entries} entries (at most {max}); choose a period with a larger power-of-two factor"
+                "transform_size and band.period_columns need a kernel table of {entries} entries (at most {max}); choose a period with a larger power-of-two factor"
             ),
             PlanError::PatternLevels { offset, amplitude } => write!(
                 f,
-                "pattern levels offset = {offset}, amplitude = {amplitude}: need amplitude > 0 and 0 <= offset - amplitude, offset + amplitude <= 1"
+                "levels.offset = {offset}, levels.amplitude = {amplitude}: need amplitude > 0 and 0 <= offset - amplitude, offset + amplitude <= 1"
             ),
             PlanError::EfsmNeedsDarkReference => write!(
                 f,
                 "references.dark = false: EFSM decides blocks against the dark frame"
             ),
             PlanError::MaxPeaks { max_peaks } => {
-                write!(f, "max_peaks = {max_peaks}: must be in 1..={MAX_PEAKS}")
+                write!(f, "decoding.max_peaks = {max_peaks}: must be in 1..={MAX_PEAKS}")
             }
             PlanError::DecodeThreshold { field, value } => {
-                write!(f, "{field} = {value}: must be finite and not negative")
+                write!(f, "decoding.{field} = {value}: must be finite and not negative")
             }
         }
     }

@@ -82,7 +82,10 @@ fn efsm_two_groups_recover_every_column_and_cover_each_others_borders() {
         let whole = |g| margin(g) + coding.border_guard >= 3.5;
         let best = plan.groups().map(margin).fold(f32::MIN, f32::max);
         let averaged = plan.groups().all(whole);
-        assert!(averaged || margin(p.candidates[0].group) == best, "column {c}");
+        assert!(
+            averaged || margin(p.candidates[0].group) == best,
+            "column {c}"
+        );
     }
     println!("EFSM two groups every column: worst error {worst:.4} column");
     assert!(worst < 0.02, "worst {worst}");

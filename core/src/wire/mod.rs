@@ -18,8 +18,11 @@ use core::fmt;
 
 use crate::plan::PlanError;
 
-/// CRC-32 (ISO-HDLC, the zlib/PNG one) of every record.
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// CRC-32 (ISO-HDLC, the zlib/PNG one) of every record. Sliced 16 ways (a 16 KiB table): a
+/// BFSM dump row is 1.2 MB of samples per 768-pixel row, and the byte-wise table checked it at
+/// about 380 MB/s on the host against 3 GB/s for this one; the checksums are the same.
+const CRC32: crc::Crc<u32, crc::Table<16>> =
+    crc::Crc::<u32, crc::Table<16>>::new(&crc::CRC_32_ISO_HDLC);
 /// CRC-64 (XZ) of plan fingerprints.
 const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
 
