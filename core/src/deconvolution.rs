@@ -23,16 +23,25 @@ use crate::spectrum::Spectrum;
 /// Columns on each side of the centre column that carry a weight (±3 measured better than the
 /// SPEC's ±2: a 1-column defocus blur puts 1% of the light 3 columns out).
 pub const HALF_WIDTH: i32 = 3;
-/// Most weights of one peak.
-pub const MAX_COLUMNS: usize = (2 * HALF_WIDTH + 1) as usize;
+/// Weights of an ordinary fit (precomputed per centre).
+pub const FIT_COLUMNS: usize = (2 * HALF_WIDTH + 1) as usize;
+/// Columns on each side of the centre of a widened fit, for light spread wider than
+/// `±HALF_WIDTH` (a camera footprint of several projector columns, a strong defocus).
+pub const WIDE_HALF_WIDTH: i32 = 6;
+/// Most weights of one peak (a widened fit).
+pub const MAX_COLUMNS: usize = (2 * WIDE_HALF_WIDTH + 1) as usize;
 /// Most weights of a joint fit of two close peaks.
-pub const MAX_JOINT_COLUMNS: usize = 2 * MAX_COLUMNS + 2;
+pub const MAX_JOINT_COLUMNS: usize = 2 * FIT_COLUMNS + 2;
 /// Bins further than this from the fitted columns (in columns) are not used by the fit…
 pub const RADIUS_COLUMNS: f32 = 5.0;
 /// … unless bins are coarser than this many per column radius.
 const MIN_BINS_PER_SIDE: f32 = 2.5;
 /// Most bins one fit reads.
 pub const MAX_BINS: usize = 64;
+/// A fit whose outermost weight carries more than this share of its light is widened.
+const EDGE_SHARE: f32 = 0.02;
+/// A rise of this share of the maximum after a fall makes the weights a second light.
+const MODE_TOLERANCE: f32 = 0.1;
 /// Ridge added to the normal equations, relative to their mean diagonal.
 const RIDGE: f64 = 1e-6;
 
@@ -49,6 +58,28 @@ pub struct ColumnWeights {
 }
 
 impl ColumnWeights {
+    /// Whether the weights rise to one maximum and fall from it (within `MODE_TOLERANCE` of the
+    /// maximum): one light, however wide, not two side by side.
+    pub fn is_unimodal(&self) -> bool {
+        let w = &self.weights[..self.len as usize];
+        let Some((top, &max)) = w.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
+            return true;
+        };
+        let tolerance = MODE_TOLERANCE * max;
+        // Moving away from the maximum, no weight may rise above the lowest one passed.
+        let falls = |side: &mut dyn Iterator<Item = f32>| {
+            let mut low = max;
+            for v in side {
+                low = low.min(v);
+                if v > low + tolerance {
+                    return false;
+                }
+            }
+            true
+        };
+        falls(&mut w[..top].iter().rev().copied()) && falls(&mut w[top + 1..].iter().copied())
+    }
+
     /// `(column, weight)` pairs.
     pub fn iter(&self) -> impl Iterator<Item = (i32, f32)> + '_ {
         (0..self.len as usize).map(move |i| (self.first + i as i32, self.weights[i]))
@@ -113,6 +144,33 @@ impl Fit {
         let mut w = [0.0f64; MAX_JOINT_COLUMNS];
         let (first, len) = table.solve(spectrum, centre, &mut w)?;
         Fit::from_weights(kernel, first, &w[..len])
+    }
+
+    /// Non-negative weights of columns `centre−6..=centre+6` (inside the span), solved directly:
+    /// for light spread wider than an ordinary fit's window.
+    pub fn solve_wide(
+        kernel: &Kernel<'_>,
+        spectrum: &Spectrum<'_>,
+        domain: &FitDomain,
+        centre: i32,
+    ) -> Option<Fit> {
+        let first = (centre - WIDE_HALF_WIDTH).max(0);
+        let last = (centre + WIDE_HALF_WIDTH).min(domain.span - 1);
+        let mut w = [0.0f64; MAX_JOINT_COLUMNS];
+        let len = solve_columns(kernel, spectrum, domain, first, last, &mut w)?;
+        Fit::from_weights(kernel, first, &w[..len])
+    }
+
+    /// Whether light remains at an edge of the fitted columns that is not the span's: the
+    /// light is wider than the window, and the centroid of what it holds is biased.
+    pub fn clipped(&self, domain: &FitDomain) -> bool {
+        let w = &self.weights;
+        let n = w.len as usize;
+        let edge = EDGE_SHARE * w.amplitude();
+        let last = w.first + n as i32 - 1;
+        n > 0
+            && ((w.first > 0 && w.weights[0] > edge)
+                || (last < domain.span - 1 && w.weights[n - 1] > edge))
     }
 
     /// Joint least-squares weights of two close peaks centred at `a < b`: one solve over the
@@ -301,7 +359,7 @@ fn solve_normal(
 ///
 /// Layout of the entry of centre `c` (`stride` floats): first column, number of columns, first
 /// bin, number of bins `n`; the Gram matrix `A` (7×7, row-major); then per column `i` the `n`
-/// pairs `(Re P_ik, −Im P_ik)`, padded to the plan's largest `n`.
+/// pairs `(Re P_ik, −Im P_ik)`, padded to the plan's largest `n`. (`FIT_COLUMNS` of each.)
 #[derive(Clone, Copy, Debug)]
 pub struct FitTable<'t> {
     data: &'t [f32],
@@ -311,7 +369,7 @@ pub struct FitTable<'t> {
 }
 
 const ENTRY_HEADER: usize = 4;
-const GRAM_LEN: usize = MAX_COLUMNS * MAX_COLUMNS;
+const GRAM_LEN: usize = FIT_COLUMNS * FIT_COLUMNS;
 
 /// Fitted columns and bins of the fit centred on column `centre`.
 fn centre_window(domain: &FitDomain, centre: i32) -> Option<(i32, i32, usize, usize)> {
@@ -336,7 +394,7 @@ impl<'t> FitTable<'t> {
     /// Floats of storage the table of `plan` needs.
     pub fn storage_len(plan: &ScanPlan) -> usize {
         let domain = FitDomain::of(plan);
-        domain.span as usize * (ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * Self::max_bins(&domain))
+        domain.span as usize * (ENTRY_HEADER + GRAM_LEN + 2 * FIT_COLUMNS * Self::max_bins(&domain))
     }
 
     /// Computes the operators of every centre column of `plan` into `storage`; `None` if it is
@@ -344,7 +402,7 @@ impl<'t> FitTable<'t> {
     pub fn build(plan: &ScanPlan, kernel: &Kernel<'_>, storage: &mut [f32]) -> Option<()> {
         let domain = FitDomain::of(plan);
         let max_bins = Self::max_bins(&domain);
-        let stride = ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * max_bins;
+        let stride = ENTRY_HEADER + GRAM_LEN + 2 * FIT_COLUMNS * max_bins;
         let span = domain.span as usize;
         let data = storage.get_mut(..span * stride)?;
         for (c, entry) in data.chunks_exact_mut(stride).enumerate() {
@@ -384,7 +442,7 @@ impl<'t> FitTable<'t> {
             entry[3] = (hi - lo) as f32;
             for i in 0..len {
                 for j in 0..len {
-                    entry[ENTRY_HEADER + i * MAX_COLUMNS + j] = a[i][j] as f32;
+                    entry[ENTRY_HEADER + i * FIT_COLUMNS + j] = a[i][j] as f32;
                 }
             }
             let operator = &mut entry[ENTRY_HEADER + GRAM_LEN..];
@@ -414,7 +472,7 @@ impl<'t> FitTable<'t> {
     pub fn view(plan: &ScanPlan, storage: &'t [f32]) -> Option<Self> {
         let domain = FitDomain::of(plan);
         let max_bins = Self::max_bins(&domain);
-        let stride = ENTRY_HEADER + GRAM_LEN + 2 * MAX_COLUMNS * max_bins;
+        let stride = ENTRY_HEADER + GRAM_LEN + 2 * FIT_COLUMNS * max_bins;
         let span = domain.span as usize;
         let data = storage.get(..span * stride)?;
         Some(FitTable {
@@ -459,7 +517,7 @@ impl<'t> FitTable<'t> {
         let mut a = [[0.0f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
         for i in 0..len {
             for j in 0..len {
-                a[i][j] = entry[ENTRY_HEADER + i * MAX_COLUMNS + j] as f64;
+                a[i][j] = entry[ENTRY_HEADER + i * FIT_COLUMNS + j] as f64;
             }
         }
         let mut y = [0.0f64; MAX_JOINT_COLUMNS];

@@ -246,6 +246,54 @@ impl PhaseShiftPlan {
         crate::wire::crc64(&bytes)
     }
 
+    /// Decodes every pixel of a row in the decoder's layout (`frames[i·W + x]`, this plan's
+    /// frame order): the phase-shift counterpart of [`crate::Decoder::decode_row`].
+    pub fn decode_row<const K: usize>(
+        &self,
+        row: &crate::decoder::Row<'_>,
+        out: &mut [PixelCandidates<K>],
+    ) -> Result<(), crate::decoder::RowError> {
+        use crate::decoder::RowError;
+        if row.width == 0 {
+            return Err(RowError::EmptyRow);
+        }
+        if !(1..=16).contains(&row.bit_depth) {
+            return Err(RowError::BitDepth {
+                bit_depth: row.bit_depth,
+            });
+        }
+        let expected = self.sequence_len().saturating_mul(row.width);
+        if row.frames.len() != expected {
+            return Err(RowError::FramesLength {
+                expected,
+                actual: row.frames.len(),
+            });
+        }
+        if out.len() != row.width {
+            return Err(RowError::OutputLength {
+                expected: row.width,
+                actual: out.len(),
+            });
+        }
+        if let Some(limits) = row.column_limits {
+            if limits.len() != row.width {
+                return Err(RowError::ColumnLimitsLength {
+                    expected: row.width,
+                    actual: limits.len(),
+                });
+            }
+        }
+        let saturation = ((1u32 << row.bit_depth) - 1) as u16;
+        let projector = ColumnRange::projector(self.projector_columns);
+        for (x, pixel) in out.iter_mut().enumerate() {
+            let range = row
+                .column_limits
+                .map_or(projector, |l| projector.intersect(&l[x]));
+            self.decode_pixel(|i| row.frames[i * row.width + x], saturation, &range, pixel);
+        }
+        Ok(())
+    }
+
     /// `(sin θ_k, cos θ_k)` of offset `k`, `θ_k = 2πk/steps`.
     fn offset(&self, k: usize) -> (f32, f32) {
         let a = core::f64::consts::TAU * k as f64 / self.steps as f64;

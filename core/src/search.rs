@@ -67,7 +67,7 @@ pub(crate) fn find_peaks(
             break;
         }
         let centre = round(peak_bin as f32 * domain.bin_width) as i32;
-        let Some(fit) = fit_centred(kernel, table, residual, centre) else {
+        let Some(fit) = fit_centred(kernel, table, residual, &domain, centre) else {
             break;
         };
         let amplitude = fit.weights.amplitude();
@@ -105,7 +105,7 @@ pub(crate) fn find_peaks(
                     .weights
                     .centroid()
                     .map_or(earlier.weights.first + HALF_WIDTH, |c| round(c) as i32);
-                fits[i] = fit_centred(kernel, table, residual, centre).unwrap_or(earlier);
+                fits[i] = fit_centred(kernel, table, residual, &domain, centre).unwrap_or(earlier);
                 fits[i].apply(kernel, residual, -1.0);
                 let (bin, n) = scan(residual, scratch);
                 (peak_bin, noise) = (bin, Some(n));
@@ -140,11 +140,13 @@ pub(crate) fn find_peaks(
     list
 }
 
-/// Fits at `centre`, then once or twice more at the rounded centroid if it moved away.
+/// Fits at `centre`, then once or twice more at the rounded centroid if it moved away; a fit
+/// that leaves light at the edge of its window is widened.
 fn fit_centred(
     kernel: &Kernel<'_>,
     table: &FitTable<'_>,
     residual: &Spectrum<'_>,
+    domain: &FitDomain,
     mut centre: i32,
 ) -> Option<Fit> {
     let mut fit = Fit::solve(kernel, table, residual, centre)?;
@@ -155,6 +157,15 @@ fn fit_centred(
         }
         centre = round(centroid) as i32;
         fit = Fit::solve(kernel, table, residual, centre)?;
+    }
+    if fit.clipped(domain) {
+        // One light wider than the window, unless the wider fit shows a second light beside it
+        // (that one the search finds on its own).
+        if let Some(wide) = Fit::solve_wide(kernel, residual, domain, centre) {
+            if wide.weights.is_unimodal() {
+                fit = wide;
+            }
+        }
     }
     Some(fit)
 }
@@ -189,7 +200,8 @@ fn refine(
             let Some((j, cj)) = nearest else { continue };
             if (cj - ci).abs() >= overlap {
                 fits[i].apply(kernel, residual, 1.0);
-                if let Some(refit) = fit_centred(kernel, table, residual, round(ci) as i32) {
+                if let Some(refit) = fit_centred(kernel, table, residual, domain, round(ci) as i32)
+                {
                     fits[i] = refit;
                 }
                 fits[i].apply(kernel, residual, -1.0);

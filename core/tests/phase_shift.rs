@@ -117,3 +117,29 @@ fn dim_pixels_are_not_decoded() {
     );
     assert!(decode(&plan, &s).candidates.is_empty());
 }
+
+#[test]
+fn rows_decode_like_their_pixels() {
+    let plan = PhaseShiftPlan::paper();
+    let mut noise = Noise::new(4);
+    let pixels: Vec<Vec<u16>> = (0..5)
+        .map(|i| samples(&plan, &Pixel::column(100 + 97 * i, 1500.0), 1.0, &mut noise))
+        .collect();
+    let frames = support::row_frames(&pixels);
+    let row = fsm_core::Row {
+        frames: &frames,
+        width: 5,
+        bit_depth: 12,
+        column_limits: None,
+    };
+    let mut out = vec![PixelCandidates::<2>::new(); 5];
+    plan.decode_row(&row, &mut out).unwrap();
+    for (p, s) in out.iter().zip(&pixels) {
+        assert_eq!(p, &decode(&plan, s));
+    }
+    let short = fsm_core::Row {
+        frames: &frames[1..],
+        ..row
+    };
+    assert!(plan.decode_row(&short, &mut out).is_err());
+}
