@@ -28,6 +28,9 @@ enum Command {
     Convert(commands::convert::Args),
     Decode(commands::decode::Args),
     Inspect(commands::inspect::Args),
+    Scan(commands::scan::Args),
+    Simulate(commands::simulate::Args),
+    Demo(commands::demo::Args),
 }
 
 fn main() -> ExitCode {
@@ -38,6 +41,9 @@ fn main() -> ExitCode {
         Command::Convert(args) => commands::convert::run(args),
         Command::Decode(args) => commands::decode::run(args),
         Command::Inspect(args) => commands::inspect::run(args),
+        Command::Scan(args) => commands::scan::run(args),
+        Command::Simulate(args) => commands::simulate::run(args),
+        Command::Demo(args) => commands::demo::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,13 +2,17 @@
 //!
 //! | stage | module | paper |
 //! |---|---|---|
+//! | candidates of every pixel, from any method | [`decoded`] | |
 //! | every candidate → a 3D point, measurement volume | [`triangulate`] | SPEC §5 |
 //! | choose the direct candidate of every pixel | [`selection`] | §III-E, eqs. 10–13 |
 //! | the chosen point, column and direct / indirect light per pixel | [`surface`] | eqs. 12–13 |
 //! | Fig. 9 metrics and column errors against ground truth | [`metrics`] | §VII-B |
 //! | `points.ply` | [`ply`] | |
+//! | everything `fsm scan` writes | [`output`] | |
 
+pub mod decoded;
 pub mod metrics;
+pub mod output;
 pub mod ply;
 pub mod selection;
 pub mod surface;

@@ -10,7 +10,11 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 /// RMS distance between the points two scans chose for the same pixels (`Ed`), over the
 /// pixels of `mask` where both have one; `None` if there are none.
-pub fn rms_deviation_mm(a: &[Option<[f32; 3]>], b: &[Option<[f32; 3]>], mask: &[bool]) -> Option<f64> {
+pub fn rms_deviation_mm(
+    a: &[Option<[f32; 3]>],
+    b: &[Option<[f32; 3]>],
+    mask: &[bool],
+) -> Option<f64> {
     let (mut sum, mut n) = (0.0f64, 0usize);
     for ((p, q), &m) in a.iter().zip(b).zip(mask) {
         if let (true, Some(p), Some(q)) = (m, p, q) {
@@ -25,8 +29,10 @@ pub fn rms_deviation_mm(a: &[Option<[f32; 3]>], b: &[Option<[f32; 3]>], mask: &[
 /// RMS orthogonal distance of `points` to their least-squares plane (`EnoI`, `EwiI`): the
 /// square root of the smallest eigenvalue of their covariance. `None` below 3 points.
 pub fn plane_fit_rmse_mm(points: impl IntoIterator<Item = [f32; 3]>) -> Option<f64> {
-    let points: Vec<Vector3<f64>> =
-        points.into_iter().map(|p| Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect();
+    let points: Vec<Vector3<f64>> = points
+        .into_iter()
+        .map(|p| Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+        .collect();
     if points.len() < 3 {
         return None;
     }
@@ -44,7 +50,7 @@ pub fn plane_fit_rmse_mm(points: impl IntoIterator<Item = [f32; 3]>) -> Option<f
 
 /// Column errors of the chosen columns against the truth, over the pixels of `mask` that have
 /// a true column.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ColumnErrors {
     /// Pixels compared (masked, with a true column).
     pub pixels: usize,
@@ -81,8 +87,78 @@ pub fn column_errors(chosen: &[Option<f32>], truth: &[f64], mask: &[bool]) -> Co
     ColumnErrors {
         pixels,
         decoded,
-        rms_columns: if within > 0 { (sum / within as f64).sqrt() } else { f64::NAN },
-        within_half_column: if pixels > 0 { within as f64 / pixels as f64 } else { f64::NAN },
-        rms_all_columns: if decoded > 0 { (sum_all / decoded as f64).sqrt() } else { f64::NAN },
+        rms_columns: if within > 0 {
+            (sum / within as f64).sqrt()
+        } else {
+            f64::NAN
+        },
+        within_half_column: if pixels > 0 {
+            within as f64 / pixels as f64
+        } else {
+            f64::NAN
+        },
+        rms_all_columns: if decoded > 0 {
+            (sum_all / decoded as f64).sqrt()
+        } else {
+            f64::NAN
+        },
+    }
+}
+
+/// Ground truth of a scanned scene, per pixel (row-major, the surface's size).
+#[derive(Clone, Copy, Debug)]
+pub struct Truth<'a> {
+    /// The direct column (SPEC §7), `NaN` where the projector does not light the pixel's point.
+    pub direct_column: &'a [f64],
+    /// Pixels whose indirect light exceeds 20% of their direct light.
+    pub interreflection: &'a [bool],
+    /// Pixels of the measured surface (the plane of the Fig. 9 metrics), away from edges.
+    pub surface: &'a [bool],
+}
+
+/// The paper's Fig. 9 figures of one method on a scene with interreflection and its twin
+/// without, plus column errors against the truth.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Comparison {
+    /// Column errors in the interreflection region.
+    pub interreflection: ColumnErrors,
+    /// The same pixels in the scene without interreflection.
+    pub interreflection_covered: ColumnErrors,
+    /// Column errors over the whole surface, with interreflection.
+    pub surface: ColumnErrors,
+    /// `Ed`, mm: RMS distance between the two scans' points on the surface.
+    pub e_d_mm: f64,
+    /// `EnoI`, mm: plane-fit RMSE without interreflection.
+    pub e_no_i_mm: f64,
+    /// `EwiI`, mm: plane-fit RMSE with interreflection.
+    pub e_wi_i_mm: f64,
+    /// Share of the surface's pixels with a point, with interreflection.
+    pub completeness: f64,
+}
+
+/// Compares a scan with interreflection (`with`) and one of the same scene without
+/// (`without`) against `truth`.
+pub fn compare(with: &crate::Surface, without: &crate::Surface, truth: &Truth<'_>) -> Comparison {
+    let on_surface = |s: &crate::Surface| -> Vec<[f32; 3]> {
+        s.point_mm
+            .iter()
+            .zip(truth.surface)
+            .filter_map(|(p, &m)| if m { *p } else { None })
+            .collect()
+    };
+    let surface_pixels = truth.surface.iter().filter(|&&m| m).count();
+    Comparison {
+        interreflection: column_errors(&with.column, truth.direct_column, truth.interreflection),
+        interreflection_covered: column_errors(
+            &without.column,
+            truth.direct_column,
+            truth.interreflection,
+        ),
+        surface: column_errors(&with.column, truth.direct_column, truth.surface),
+        e_d_mm: rms_deviation_mm(&with.point_mm, &without.point_mm, truth.surface)
+            .unwrap_or(f64::NAN),
+        e_no_i_mm: plane_fit_rmse_mm(on_surface(without)).unwrap_or(f64::NAN),
+        e_wi_i_mm: plane_fit_rmse_mm(on_surface(with)).unwrap_or(f64::NAN),
+        completeness: on_surface(with).len() as f64 / surface_pixels.max(1) as f64,
     }
 }

@@ -1,11 +1,9 @@
 //! `points.ply`: binary little-endian PLY that MeshLab, CloudCompare and Open3D open.
 //!
 //! One vertex per pixel with a point: `float x, y, z` (camera frame, mm), `float intensity`
-//! (the direct illumination, sensor DN), `ushort pixel_x, pixel_y`. Written to a temporary file
-//! beside the target and renamed when whole.
+//! (the direct illumination, sensor DN), `ushort pixel_x, pixel_y`.
 
-use std::io::{self, BufWriter, Write};
-use std::path::Path;
+use std::io::{self, Write};
 
 /// One point of the cloud.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -18,30 +16,23 @@ pub struct PlyPoint {
     pub pixel: [u16; 2],
 }
 
-/// Writes `points` to `path`, whole or not at all.
-pub fn write_ply(path: &Path, points: &[PlyPoint]) -> io::Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let mut file = tempfile::NamedTempFile::new_in(dir)?;
-    {
-        let mut out = BufWriter::new(file.as_file_mut());
-        write!(
-            out,
-            "ply\nformat binary_little_endian 1.0\ncomment fsm scan: camera frame, millimetres\n\
-             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             property float intensity\nproperty ushort pixel_x\nproperty ushort pixel_y\n\
-             end_header\n",
-            points.len()
-        )?;
-        for p in points {
-            for v in p.point_mm {
-                out.write_all(&v.to_le_bytes())?;
-            }
-            out.write_all(&p.intensity.to_le_bytes())?;
-            out.write_all(&p.pixel[0].to_le_bytes())?;
-            out.write_all(&p.pixel[1].to_le_bytes())?;
+/// Writes the PLY file of `points` to `out`.
+pub fn write_ply(mut out: impl Write, points: &[PlyPoint]) -> io::Result<()> {
+    write!(
+        out,
+        "ply\nformat binary_little_endian 1.0\ncomment fsm scan: camera frame, millimetres\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float intensity\nproperty ushort pixel_x\nproperty ushort pixel_y\n\
+         end_header\n",
+        points.len()
+    )?;
+    for p in points {
+        for v in p.point_mm {
+            out.write_all(&v.to_le_bytes())?;
         }
-        out.flush()?;
+        out.write_all(&p.intensity.to_le_bytes())?;
+        out.write_all(&p.pixel[0].to_le_bytes())?;
+        out.write_all(&p.pixel[1].to_le_bytes())?;
     }
-    file.persist(path).map_err(|e| e.error)?;
-    Ok(())
+    out.flush()
 }

@@ -56,7 +56,10 @@ impl Surface {
 
     /// Depth (camera `z`, mm) per pixel, `NaN` where none.
     pub fn depth_mm(&self) -> Vec<f32> {
-        self.point_mm.iter().map(|p| p.map_or(f32::NAN, |p| p[2])).collect()
+        self.point_mm
+            .iter()
+            .map(|p| p.map_or(f32::NAN, |p| p[2]))
+            .collect()
     }
 
     /// The points as PLY vertices.
@@ -80,7 +83,45 @@ impl SelectionParams {
     /// volume, depth over the camera's focal length.
     pub fn for_calibration(calibration: &Calibration) -> Self {
         let depth = 0.5 * (calibration.volume.near_mm() + calibration.volume.far_mm());
-        let focal = calibration.camera.intrinsics().fx_px.max(calibration.camera.intrinsics().fy_px);
+        let focal = calibration
+            .camera
+            .intrinsics()
+            .fx_px
+            .max(calibration.camera.intrinsics().fy_px);
         SelectionParams::for_footprint((depth / focal) as f32)
+    }
+}
+
+/// Seconds spent in each stage after decoding.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    /// Triangulating every candidate.
+    pub triangulate_seconds: f64,
+    /// Selecting the direct candidates.
+    pub select_seconds: f64,
+}
+
+impl Surface {
+    /// Triangulates every candidate of `decoded` and selects the direct ones.
+    pub fn reconstruct(
+        decoded: &crate::decoded::DecodedImage,
+        calibration: &Calibration,
+        params: &SelectionParams,
+    ) -> (Surface, StageTimes) {
+        let started = std::time::Instant::now();
+        let field = crate::triangulate::candidate_field(
+            calibration,
+            decoded.first_row,
+            decoded.width,
+            decoded.height,
+            &decoded.pixels,
+        );
+        let triangulated = std::time::Instant::now();
+        let surface = Surface::select(&field, params);
+        let times = StageTimes {
+            triangulate_seconds: (triangulated - started).as_secs_f64(),
+            select_seconds: triangulated.elapsed().as_secs_f64(),
+        };
+        (surface, times)
     }
 }

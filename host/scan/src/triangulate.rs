@@ -27,7 +27,9 @@ pub fn candidate_field<const K: usize>(
             (0..width)
                 .map(|x| {
                     let pixel = Point2::new(x as f64, (first_row + y) as f64);
-                    let Ok(ray) = calibration.pixel_ray(pixel) else { return Vec::new() };
+                    let Ok(ray) = calibration.pixel_ray(pixel) else {
+                        return Vec::new();
+                    };
                     pixels[y * width + x]
                         .candidates
                         .iter()
@@ -51,9 +53,14 @@ pub fn candidate_field<const K: usize>(
 /// [`fsm_core::Row::column_limits`]; an empty range where the pixel sees none.
 pub fn column_limits(calibration: &Calibration, width: usize, y: usize) -> Vec<ColumnRange> {
     (0..width)
-        .map(|x| match calibration.column_range(Point2::new(x as f64, y as f64)) {
-            Ok(range) => range.to_column_range(),
-            Err(_) => ColumnRange { first: 1.0, last: 0.0 },
-        })
+        .map(
+            |x| match calibration.column_range(Point2::new(x as f64, y as f64)) {
+                Ok(range) => range.to_column_range(),
+                Err(_) => ColumnRange {
+                    first: 1.0,
+                    last: 0.0,
+                },
+            },
+        )
         .collect()
 }

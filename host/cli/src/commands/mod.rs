@@ -2,9 +2,12 @@
 
 pub mod convert;
 pub mod decode;
+pub mod demo;
 pub mod inspect;
 pub mod patterns;
 pub mod plan;
+pub mod scan;
+pub mod simulate;
 
 use std::path::PathBuf;
 

@@ -1,0 +1,195 @@
+//! `fsm simulate`, `fsm scan` and `fsm demo` through the real binary: a simulated mirror scene
+//! scanned end to end, its point cloud read back by an independent PLY reader, and the demo's
+//! report. Small cameras keep the run short.
+
+use std::fs;
+use std::path::Path;
+
+use assert_cmd::Command;
+use ply_rs::parser::Parser;
+use ply_rs::ply::{DefaultElement, Property};
+
+fn fsm() -> Command {
+    Command::cargo_bin("fsm").unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn float(e: &DefaultElement, name: &str) -> f32 {
+    match e.get(name) {
+        Some(Property::Float(v)) => *v,
+        other => panic!("{name}: {other:?}"),
+    }
+}
+
+#[test]
+fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let (sim, out) = (dir.path().join("sim"), dir.path().join("scan"));
+    fsm()
+        .args([
+            "simulate",
+            "--scene",
+            "plane_mirror",
+            "--preset",
+            "paper-bfsm",
+            "--camera",
+            "96x72",
+            "--out",
+            s(&sim),
+        ])
+        .assert()
+        .success();
+    for name in [
+        "plan.toml",
+        "calibration.toml",
+        "scan.dump",
+        "truth/depth.tiff",
+        "truth/column.tiff",
+        "truth/interreflection.png",
+    ] {
+        assert!(sim.join(name).is_file(), "{name}");
+    }
+    fsm()
+        .args([
+            "scan",
+            "--plan",
+            s(&sim.join("plan.toml")),
+            "--calibration",
+            s(&sim.join("calibration.toml")),
+        ])
+        .args(["--dump", s(&sim.join("scan.dump")), "--out", s(&out)])
+        .assert()
+        .success();
+    let summary: serde_json::Value =
+        serde_json::from_slice(&fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let points = summary["points"].as_u64().unwrap() as usize;
+    assert!(points > 96 * 72 / 2, "{summary}");
+
+    // Read points.ply back with ply-rs: as many vertices as the summary says, inside the
+    // calibration's measurement volume (350–700 mm), pixel coordinates inside the image.
+    let mut file = fs::File::open(out.join("points.ply")).unwrap();
+    let ply = Parser::<DefaultElement>::new().read_ply(&mut file).unwrap();
+    let vertices = &ply.payload["vertex"];
+    assert_eq!(vertices.len(), points);
+    for v in vertices {
+        let z = float(v, "z");
+        assert!((350.0..=700.0).contains(&z), "z = {z}");
+        assert!(float(v, "intensity") > 0.0);
+        match (v.get("pixel_x"), v.get("pixel_y")) {
+            (Some(Property::UShort(x)), Some(Property::UShort(y))) => assert!(*x < 96 && *y < 72),
+            other => panic!("pixel: {other:?}"),
+        }
+    }
+    for name in [
+        "depth.tiff",
+        "column.tiff",
+        "direct.png",
+        "indirect.png",
+        "depth.png",
+    ] {
+        assert!(out.join(name).is_file(), "{name}");
+    }
+}
+
+#[test]
+fn scan_refuses_a_calibration_of_another_projector_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    fsm()
+        .args([
+            "simulate",
+            "--scene",
+            "plane",
+            "--preset",
+            "paper-efsm-1",
+            "--camera",
+            "32x24",
+            "--out",
+            s(&sim),
+        ])
+        .assert()
+        .success();
+    // A 640-column plan against the 768-column calibration.
+    let plan = fs::read_to_string(sim.join("plan.toml"))
+        .unwrap()
+        .replace("projector_columns = 768", "projector_columns = 640");
+    let other = dir.path().join("other.toml");
+    fs::write(&other, plan).unwrap();
+    let out = dir.path().join("scan");
+    let assert = fsm()
+        .args([
+            "scan",
+            "--plan",
+            s(&other),
+            "--calibration",
+            s(&sim.join("calibration.toml")),
+        ])
+        .args(["--dump", s(&sim.join("scan.dump")), "--out", s(&out)])
+        .assert()
+        .failure();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(
+        stderr.contains("calibration.toml") && stderr.contains("768") && stderr.contains("640"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+    let missing = dir.path().join("missing.toml");
+    let assert = fsm()
+        .args([
+            "scan",
+            "--plan",
+            s(&sim.join("plan.toml")),
+            "--calibration",
+            s(&missing),
+        ])
+        .args(["--dump", s(&sim.join("scan.dump")), "--out", s(&out)])
+        .assert()
+        .failure();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("missing.toml"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn the_demo_reports_the_papers_comparison() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    fsm()
+        .args(["demo", "--camera", "128x96", "--out", s(&out)])
+        .assert()
+        .success();
+    let report: serde_json::Value =
+        serde_json::from_slice(&fs::read(out.join("report.json")).unwrap()).unwrap();
+    let share = |m: usize| {
+        report["methods"][m]["figures"]["interreflection"]["within_half_column"]
+            .as_f64()
+            .unwrap()
+    };
+    let e_d = |m: usize| report["methods"][m]["figures"]["e_d_mm"].as_f64().unwrap();
+    assert_eq!(report["methods"][0]["method"], "BFSM");
+    assert_eq!(report["methods"][2]["method"], "PS");
+    assert!(
+        report["interreflection_pixels"].as_u64().unwrap() > 100,
+        "{report}"
+    );
+    assert!(share(0) >= 0.99, "BFSM {}", share(0));
+    assert!(share(2) < 0.5, "PS {}", share(2));
+    assert!(
+        e_d(2) > 10.0 * e_d(0),
+        "Ed: PS {} vs BFSM {}",
+        e_d(2),
+        e_d(0)
+    );
+    let md = fs::read_to_string(out.join("report.md")).unwrap();
+    for picture in [
+        "bfsm/column_error.png",
+        "ps/plane_mirror/depth.png",
+        "efsm/plane_mirror/indirect.png",
+    ] {
+        assert!(md.contains(picture), "{picture}");
+        assert!(out.join(picture).is_file(), "{picture}");
+    }
+}

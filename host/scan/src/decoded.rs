@@ -1,0 +1,137 @@
+//! The decoded candidates of every pixel of a scan, whichever method made them: captures on
+//! disk (image stacks, dump files) through the host's parallel decoding pipeline, rows in
+//! memory (a simulated camera's) row-parallel through the core's line decoders, FSM and the
+//! phase-shift baseline alike. Triangulation and selection take it from here.
+
+use fsm_core::wire::candidates::decode_record;
+use fsm_core::{ColumnRange, Decoder, PhaseShiftPlan, Row, ScanPlan};
+use fsm_host::candidate_file::HostCandidates;
+use fsm_host::capture::Capture;
+use fsm_host::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary};
+use fsm_host::progress::Progress;
+use fsm_host::{Error, Result};
+use rayon::prelude::*;
+
+/// A decoding method and its plan.
+#[derive(Clone, Copy, Debug)]
+pub enum Method<'p> {
+    /// BFSM or EFSM.
+    Fsm(&'p ScanPlan),
+    /// The phase-shift + Gray-code baseline.
+    PhaseShift(&'p PhaseShiftPlan),
+}
+
+/// Candidates of every pixel of `height` rows from `first_row` on, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DecodedImage {
+    /// Pixels per row.
+    pub width: usize,
+    /// Camera row of `pixels[0]`.
+    pub first_row: usize,
+    /// Rows.
+    pub height: usize,
+    /// One candidate list per pixel.
+    pub pixels: Vec<HostCandidates>,
+}
+
+impl DecodedImage {
+    /// Decodes an FSM capture (image stack or dump file) with the host's pipeline.
+    pub fn decode_capture(
+        plan: &ScanPlan,
+        capture: &Capture,
+        options: &DecodeOptions,
+        progress: &Progress,
+    ) -> Result<(DecodedImage, DecodeSummary)> {
+        let (width, height) = (capture.width() as usize, capture.height() as usize);
+        let mut image = DecodedImage::empty(width, height);
+        let header = candidate_header(plan, capture.width(), capture.height());
+        let summary = decode_capture(plan, capture, options, progress, |row| {
+            image.take_row(&header, row)
+        })?;
+        Ok((image, summary))
+    }
+
+    /// Decodes rows held in memory (a simulated camera's): `samples(y)` gives row `y` in the
+    /// decoder's layout (`frames[i·W + x]`, the method's frame order); `limits(y)`, if given,
+    /// the columns each pixel of row `y` can see (from the calibration's measurement volume).
+    pub fn decode_rows(
+        method: Method<'_>,
+        width: usize,
+        rows: std::ops::Range<usize>,
+        bit_depth: u8,
+        limits: Option<&(dyn Fn(usize) -> Vec<ColumnRange> + Sync)>,
+        samples: impl Fn(usize) -> Result<Vec<u16>> + Sync,
+    ) -> Result<DecodedImage> {
+        let mut tables = Vec::new();
+        let decoder = match method {
+            Method::Fsm(plan) => {
+                tables.resize(Decoder::tables_len(plan), 0.0);
+                let decoder = Decoder::new(plan, &mut tables)
+                    .map_err(|e| Error::Usage(format!("cannot decode with this plan: {e}")))?;
+                Some(decoder)
+            }
+            Method::PhaseShift(_) => None,
+        };
+        let scratch_len = match method {
+            Method::Fsm(plan) => Decoder::scratch_len(plan),
+            Method::PhaseShift(_) => 0,
+        };
+        let decoded: Vec<Vec<HostCandidates>> = rows
+            .clone()
+            .into_par_iter()
+            .map_init(
+                || vec![0.0f32; scratch_len],
+                |scratch, y| {
+                    let frames = samples(y)?;
+                    let limits = limits.map(|l| l(y));
+                    let row = Row {
+                        frames: &frames,
+                        width,
+                        bit_depth,
+                        column_limits: limits.as_deref(),
+                    };
+                    let mut out = vec![HostCandidates::new(); width];
+                    let result = match (method, &decoder) {
+                        (Method::PhaseShift(plan), _) => plan.decode_row(&row, &mut out),
+                        (Method::Fsm(_), Some(d)) => d.decode_row(&row, scratch, &mut out),
+                        (Method::Fsm(_), None) => unreachable!("an FSM decoder was built above"),
+                    };
+                    result.map_err(|e| Error::Usage(format!("row {y}: {e}")))?;
+                    Ok(out)
+                },
+            )
+            .collect::<Result<_>>()?;
+        Ok(DecodedImage {
+            width,
+            first_row: rows.start,
+            height: rows.len(),
+            pixels: decoded.into_iter().flatten().collect(),
+        })
+    }
+
+    fn empty(width: usize, height: usize) -> Self {
+        DecodedImage {
+            width,
+            first_row: 0,
+            height,
+            pixels: vec![HostCandidates::new(); width * height],
+        }
+    }
+
+    /// Stores a decoded row from its candidate record (the bytes the candidate file holds).
+    fn take_row(
+        &mut self,
+        header: &fsm_core::wire::candidates::CandidateHeader,
+        row: fsm_host::decode::DecodedRow,
+    ) -> Result<()> {
+        let record = decode_record(header, &row.record)
+            .map_err(|e| Error::Usage(format!("decoded row {}: {e}", row.row)))?;
+        let y = record.row as usize;
+        record
+            .read_into(
+                header,
+                &mut self.pixels[y * self.width..(y + 1) * self.width],
+            )
+            .map_err(|e| Error::Usage(format!("decoded row {y}: {e}")))
+    }
+}

@@ -1,0 +1,125 @@
+//! What `fsm scan` writes: `points.ply` (binary little-endian: x y z mm, intensity, pixel x y),
+//! `depth.tiff` and `column.tiff` (32-bit float, NaN where none), `direct.png` and
+//! `indirect.png` (eqs. 12–13, one shared scale), `depth.png` (coloured preview) and
+//! `summary.json` (counts, timings, parameters).
+
+use std::path::Path;
+
+use fsm_host::column_map::viridis_rgb;
+use fsm_host::image_files::{write_png_gray8, write_png_rgb8, write_tiff_f32};
+use fsm_host::outputs::{write_file, StagedFile};
+use fsm_host::{Error, Result};
+use serde::Serialize;
+
+use crate::ply::write_ply;
+use crate::surface::Surface;
+
+/// The contents of `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScanSummary {
+    /// `BFSM`, `EFSM` or `PS`.
+    pub method: String,
+    /// Fingerprint of the plan, hexadecimal.
+    pub plan_fingerprint: String,
+    /// Image size.
+    pub width: usize,
+    /// Image size.
+    pub height: usize,
+    /// Candidates the decoder reported.
+    pub candidates: u64,
+    /// Candidates that triangulated inside the measurement volume.
+    pub candidates_in_volume: usize,
+    /// Pixels with a point.
+    pub points: usize,
+    /// Seconds spent decoding.
+    pub decode_seconds: f64,
+    /// Seconds spent triangulating.
+    pub triangulate_seconds: f64,
+    /// Seconds spent selecting.
+    pub select_seconds: f64,
+    /// The selection's parameters.
+    pub selection: SelectionSummary,
+    /// CRC-32 checksum of the calibration used (`fsm_geometry` file checksum).
+    pub calibration_checksum: String,
+}
+
+/// The selection parameters as written to `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct SelectionSummary {
+    /// 8 or 16.
+    pub paths: u8,
+    /// `ε`, mm.
+    pub epsilon_mm: f32,
+    /// `β`, per mm.
+    pub beta_per_mm: f32,
+}
+
+/// Writes every output of a scan into the folder `dir` (a staging folder: the caller commits
+/// it whole).
+pub fn write_scan(dir: &Path, surface: &Surface, summary: &ScanSummary) -> Result<()> {
+    let (w, h) = (surface.width as u32, surface.height as u32);
+    let encode = |path: &Path| {
+        let path = path.to_path_buf();
+        move |e: fsm_host::image_files::ImageError| Error::Encode {
+            path: path.clone(),
+            message: e.0,
+        }
+    };
+    let ply = dir.join("points.ply");
+    let mut file = StagedFile::create(&ply)?;
+    write_ply(file.writer(), &surface.ply_points()).map_err(|e| Error::io(&ply, e))?;
+    file.commit()?;
+    let depth = surface.depth_mm();
+    let column: Vec<f32> = surface
+        .column
+        .iter()
+        .map(|c| c.unwrap_or(f32::NAN))
+        .collect();
+    for (name, values) in [("depth.tiff", &depth), ("column.tiff", &column)] {
+        let path = dir.join(name);
+        let mut bytes = Vec::new();
+        write_tiff_f32(&mut std::io::Cursor::new(&mut bytes), w, h, values)
+            .map_err(encode(&path))?;
+        write_file(&path, &bytes)?;
+    }
+    // Direct and indirect light on one scale (the 99.5th percentile of the direct light).
+    let scale = percentile(&surface.direct, 0.995).max(f32::MIN_POSITIVE);
+    for (name, values) in [
+        ("direct.png", &surface.direct),
+        ("indirect.png", &surface.indirect),
+    ] {
+        let path = dir.join(name);
+        let grey: Vec<u8> = values
+            .iter()
+            .map(|v| (255.0 * v / scale).round().clamp(0.0, 255.0) as u8)
+            .collect();
+        let mut bytes = Vec::new();
+        write_png_gray8(&mut bytes, w, h, &grey).map_err(encode(&path))?;
+        write_file(&path, &bytes)?;
+    }
+    let (near, far) = (percentile(&depth, 0.01), percentile(&depth, 0.99));
+    let path = dir.join("depth.png");
+    let mut bytes = Vec::new();
+    write_png_rgb8(
+        &mut bytes,
+        w,
+        h,
+        &viridis_rgb(&depth, near, far.max(near + 1e-3)),
+    )
+    .map_err(encode(&path))?;
+    write_file(&path, &bytes)?;
+    let json = serde_json::to_vec_pretty(summary)
+        .map_err(|e| Error::Usage(format!("summary.json: {e}")))?;
+    write_file(&dir.join("summary.json"), &json)
+}
+
+/// The `q` quantile of the finite values (0 if there are none).
+pub fn percentile(values: &[f32], q: f64) -> f32 {
+    let mut finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.is_empty() {
+        return 0.0;
+    }
+    let k = ((finite.len() - 1) as f64 * q).round() as usize;
+    let (_, v, _) = finite.select_nth_unstable_by(k, f32::total_cmp);
+    *v
+}
