@@ -82,17 +82,7 @@ impl ColumnMap {
     /// Colour preview: viridis from column 0 (dark blue) to `projector_columns − 1` (yellow),
     /// black where there is no candidate.
     pub fn preview_rgb(&self, projector_columns: u16) -> Vec<u8> {
-        let top = (projector_columns.max(2) - 1) as f32;
-        let mut rgb = Vec::with_capacity(self.columns.len() * 3);
-        for &c in &self.columns {
-            if c.is_finite() {
-                let color = ViridisRGB.get_color_normalized(c.clamp(0.0, top), 0.0, top);
-                rgb.extend_from_slice(&[color.0, color.1, color.2]);
-            } else {
-                rgb.extend_from_slice(&[0, 0, 0]);
-            }
-        }
-        rgb
+        viridis_rgb(&self.columns, 0.0, (projector_columns.max(2) - 1) as f32)
     }
 
     /// Writes the colour preview PNG, whole or not at all.
@@ -107,4 +97,19 @@ impl ColumnMap {
         })?;
         file.commit()
     }
+}
+
+/// RGB bytes of `values` coloured by viridis from `low` (dark blue) to `high` (yellow), values
+/// outside clamped, black where a value is not finite.
+pub fn viridis_rgb(values: &[f32], low: f32, high: f32) -> Vec<u8> {
+    let mut rgb = Vec::with_capacity(values.len() * 3);
+    for &v in values {
+        if v.is_finite() {
+            let color = ViridisRGB.get_color_normalized(v.clamp(low, high), low, high);
+            rgb.extend_from_slice(&[color.0, color.1, color.2]);
+        } else {
+            rgb.extend_from_slice(&[0, 0, 0]);
+        }
+    }
+    rgb
 }

@@ -10,59 +10,19 @@
 use std::ops::Range;
 use std::sync::Arc;
 
-use fsm_core::{Decoder, GroupCount, PhaseShiftPlan, PixelCandidates, Row, ScanPlan};
-use fsm_scan::metrics::{column_errors, plane_fit_rmse_mm, rms_deviation_mm, ColumnErrors};
-use fsm_scan::triangulate::{candidate_field, column_limits};
+use fsm_core::{GroupCount, PhaseShiftPlan, ScanPlan};
+use fsm_scan::decoded::{self, DecodedImage};
+use fsm_scan::metrics::{compare, Comparison, Truth};
+use fsm_scan::triangulate::column_limits;
 use fsm_scan::{SelectionParams, Surface};
 use fsm_sim::{
     Capture, LightTransport, PathKind, PixelTruth, Scene, Sensor, SurfaceClass, System,
     TransportSettings,
 };
-use rayon::prelude::*;
-
-const K: usize = 16;
 
 enum Method {
     Fsm(ScanPlan),
     PhaseShift(PhaseShiftPlan),
-}
-
-/// Decodes every rendered row of `capture` with `method`, with the calibration's column limits.
-fn decode(capture: &Capture, method: &Method, system: &System) -> Vec<PixelCandidates<K>> {
-    let width = capture.width() as usize;
-    let rows: Vec<u32> = capture.rows().collect();
-    let per_row: Vec<Vec<PixelCandidates<K>>> = rows
-        .par_iter()
-        .map(|&y| {
-            let frames = capture.row(y).expect("row renders");
-            let limits = column_limits(&system.calibration, width, y as usize);
-            let mut out = vec![PixelCandidates::<K>::new(); width];
-            match method {
-                Method::Fsm(plan) => {
-                    let mut tables = vec![0.0; Decoder::tables_len(plan)];
-                    let decoder = Decoder::new(plan, &mut tables).expect("valid plan");
-                    let mut scratch = vec![0.0; Decoder::scratch_len(plan)];
-                    let row = Row {
-                        frames: &frames,
-                        width,
-                        bit_depth: capture.bit_depth(),
-                        column_limits: Some(&limits),
-                    };
-                    decoder
-                        .decode_row(&row, &mut scratch, &mut out)
-                        .expect("row decodes");
-                }
-                Method::PhaseShift(plan) => {
-                    let saturation = capture.sensor().max_code();
-                    for (x, p) in out.iter_mut().enumerate() {
-                        plan.decode_pixel(|i| frames[i * width + x], saturation, &limits[x], p);
-                    }
-                }
-            }
-            out
-        })
-        .collect();
-    per_row.into_iter().flatten().collect()
 }
 
 /// A scan of one scene with one method: the surface and the truth of its pixels.
@@ -71,6 +31,8 @@ struct Scanned {
     truth: Vec<PixelTruth>,
 }
 
+/// Renders `method`'s capture of `transport`'s rows, decodes it with the calibration's column
+/// limits, triangulates and selects — the library path `fsm scan` and `fsm demo` take.
 fn scan(
     transport: &Arc<LightTransport>,
     method: &Method,
@@ -78,21 +40,35 @@ fn scan(
     sensor: &Sensor,
     seed: u64,
 ) -> Scanned {
-    let sensor = *sensor;
-    let capture = match method {
-        Method::Fsm(plan) => Capture::new(transport.clone(), plan, system, sensor, seed),
-        Method::PhaseShift(plan) => Capture::new(transport.clone(), plan, system, sensor, seed),
-    }
-    .expect("capture");
-    let candidates = decode(&capture, method, system);
+    let (capture, decoding) = match method {
+        Method::Fsm(plan) => (
+            Capture::new(transport.clone(), plan, system, *sensor, seed),
+            decoded::Method::Fsm(plan),
+        ),
+        Method::PhaseShift(plan) => (
+            Capture::new(transport.clone(), plan, system, *sensor, seed),
+            decoded::Method::PhaseShift(plan),
+        ),
+    };
+    let capture = capture.expect("capture");
     let width = capture.width() as usize;
-    let height = capture.rows().len();
-    let first_row = capture.rows().start as usize;
-    let field = candidate_field(&system.calibration, first_row, width, height, &candidates);
-    let surface = Surface::select(
-        &field,
-        &SelectionParams::for_calibration(&system.calibration),
-    );
+    let rows = capture.rows().start as usize..capture.rows().end as usize;
+    let limits = |y: usize| column_limits(&system.calibration, width, y);
+    let image = DecodedImage::decode_rows(
+        decoding,
+        width,
+        rows,
+        capture.bit_depth(),
+        Some(&limits),
+        |y| {
+            capture
+                .row(y as u32)
+                .map_err(|e| fsm_host::Error::Usage(e.to_string()))
+        },
+    )
+    .expect("rows decode");
+    let params = SelectionParams::for_calibration(&system.calibration);
+    let (surface, _) = Surface::reconstruct(&image, &system.calibration, &params);
     let truth = capture
         .rows()
         .flat_map(|y| (0..width as u32).map(move |x| (x, y)))
@@ -106,67 +82,43 @@ fn scan(
     Scanned { surface, truth }
 }
 
-/// The figures the issue asks for, of one method on one scene pair.
-struct Figures {
-    interreflection: ColumnErrors,
-    interreflection_covered: ColumnErrors,
-    plane: ColumnErrors,
-    e_d_mm: f64,
-    e_no_i_mm: f64,
-    e_wi_i_mm: f64,
-    completeness: f64,
-}
-
-fn figures(with: &Scanned, without: &Scanned) -> Figures {
-    let truth_columns: Vec<f64> = with.truth.iter().map(|t| t.direct_column).collect();
+/// The issue's figures of one method: the Fig. 9 comparison of its scans with and without the
+/// mirror, over the plane's pixels away from edges.
+fn figures(with: &Scanned, without: &Scanned) -> Comparison {
+    let direct_column: Vec<f64> = with.truth.iter().map(|t| t.direct_column).collect();
     let interreflection: Vec<bool> = with
         .truth
         .iter()
         .map(|t| t.is_interreflection() && !t.edge)
         .collect();
-    let plane: Vec<bool> = with
+    let surface: Vec<bool> = with
         .truth
         .iter()
         .map(|t| t.class == SurfaceClass::Diffuse && !t.edge && t.direct_column.is_finite())
         .collect();
-    let plane_points = |s: &Scanned| {
-        s.surface
-            .point_mm
-            .iter()
-            .zip(&plane)
-            .filter_map(|(p, &m)| if m { *p } else { None })
-            .collect::<Vec<_>>()
+    let truth = Truth {
+        direct_column: &direct_column,
+        interreflection: &interreflection,
+        surface: &surface,
     };
-    Figures {
-        interreflection: column_errors(&with.surface.column, &truth_columns, &interreflection),
-        interreflection_covered: column_errors(
-            &without.surface.column,
-            &truth_columns,
-            &interreflection,
-        ),
-        plane: column_errors(&with.surface.column, &truth_columns, &plane),
-        e_d_mm: rms_deviation_mm(&with.surface.point_mm, &without.surface.point_mm, &plane)
-            .unwrap_or(f64::NAN),
-        e_no_i_mm: plane_fit_rmse_mm(plane_points(without)).unwrap_or(f64::NAN),
-        e_wi_i_mm: plane_fit_rmse_mm(plane_points(with)).unwrap_or(f64::NAN),
-        completeness: plane_points(with).len() as f64 / plane.iter().filter(|&&m| m).count() as f64,
-    }
+    compare(&with.surface, &without.surface, &truth)
 }
 
-fn report(name: &str, f: &Figures, standoff_mm: f64) {
+fn report(name: &str, f: &Comparison, standoff_mm: f64) {
     println!(
         "{name:>5}: interreflection pixels {} within 0.5 column {:.2}% (covered {:.2}%), column RMS {:.4} (covered {:.4}), \
-         all-decoded RMS {:.3}; plane: {} pixels, {:.2}% within 0.5, column RMS {:.4}, all-decoded {:.3}; Ed {:.4} mm ({:.4}% of standoff), EnoI {:.4} mm, EwiI {:.4} mm, completeness {:.2}%",
+         all-decoded RMS {:.3}; plane: {} pixels, {:.2}% within 0.5, column RMS {:.4}, all-decoded {:.3}; \
+         Ed {:.4} mm ({:.4}% of standoff), EnoI {:.4} mm, EwiI {:.4} mm, completeness {:.2}%",
         f.interreflection.pixels,
         100.0 * f.interreflection.within_half_column,
         100.0 * f.interreflection_covered.within_half_column,
         f.interreflection.rms_columns,
         f.interreflection_covered.rms_columns,
         f.interreflection.rms_all_columns,
-        f.plane.pixels,
-        100.0 * f.plane.within_half_column,
-        f.plane.rms_columns,
-        f.plane.rms_all_columns,
+        f.surface.pixels,
+        100.0 * f.surface.within_half_column,
+        f.surface.rms_columns,
+        f.surface.rms_all_columns,
         f.e_d_mm,
         100.0 * f.e_d_mm / standoff_mm,
         f.e_no_i_mm,
@@ -230,9 +182,9 @@ fn compare_methods(rows: Range<u32>) {
         b.interreflection.within_half_column
     );
     assert!(
-        b.plane.rms_columns <= 0.05,
+        b.surface.rms_columns <= 0.05,
         "BFSM column RMS {}",
-        b.plane.rms_columns
+        b.surface.rms_columns
     );
     assert!(
         (b.e_wi_i_mm / b.e_no_i_mm - 1.0).abs() <= 0.25,

@@ -13,7 +13,9 @@ use clap::{Parser, Subcommand};
 /// images (`fsm patterns`), the camera captures one image per pattern (or dumps raw rows),
 /// and `fsm decode` finds, for every camera pixel, every projector column that lights it —
 /// directly or through reflections — with the candidate amplitudes. `fsm inspect` plots what
-/// the decoder sees at a pixel or along a row.
+/// the decoder sees at a pixel or along a row. `fsm scan` turns a capture into a surface
+/// (points.ply); `fsm simulate` and `fsm demo` do it on simulated scenes, no camera needed.
+/// `fsm upload` and `fsm camera` talk to a camera that decodes on board.
 #[derive(Parser)]
 #[command(name = "fsm", version, propagate_version = true, max_term_width = 100)]
 struct Cli {
@@ -31,6 +33,8 @@ enum Command {
     Scan(commands::scan::Args),
     Simulate(commands::simulate::Args),
     Demo(commands::demo::Args),
+    Upload(commands::camera::UploadArgs),
+    Camera(commands::camera::CameraArgs),
 }
 
 fn main() -> ExitCode {
@@ -44,6 +48,8 @@ fn main() -> ExitCode {
         Command::Scan(args) => commands::scan::run(args),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Demo(args) => commands::demo::run(args),
+        Command::Upload(args) => commands::camera::upload(args),
+        Command::Camera(args) => commands::camera::camera(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,146 @@
+//! `fsm upload` and `fsm camera`: talking to a smart camera that decodes on board, over TCP
+//! (`tcp://host:port`) or a serial port (`/dev/ttyUSB0`, `/dev/ttyUSB0@921600`), with the
+//! protocol of `fsm-protocol` (postcard + COBS frames, CRC-32, versioned).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use fsm_host::{Error, Result};
+use fsm_protocol::client::{self, Client};
+use fsm_protocol::RowOutput;
+
+/// Upload a scan plan to a camera; it answers with the plan's fingerprint.
+///
+/// Examples:
+///   fsm upload --plan plan.toml --device tcp://192.168.1.20:7878
+///   fsm upload --plan plan.toml --device /dev/ttyUSB0@921600
+#[derive(clap::Args, Debug)]
+#[command(verbatim_doc_comment)]
+pub struct UploadArgs {
+    /// Scan-plan file.
+    #[arg(long, value_name = "FILE")]
+    plan: PathBuf,
+    /// The camera: tcp://HOST:PORT or a serial port path (PATH@BAUD).
+    #[arg(long, value_name = "ADDR")]
+    device: String,
+    /// Seconds to wait for each answer.
+    #[arg(long, value_name = "S", default_value_t = 10)]
+    timeout: u64,
+}
+
+/// Talk to a camera: its limits, or a scan whose rows it decodes.
+#[derive(clap::Args, Debug)]
+pub struct CameraArgs {
+    #[command(subcommand)]
+    command: CameraCommand,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum CameraCommand {
+    /// Print the camera's protocol version, limits and loaded plan.
+    Info {
+        /// The camera: tcp://HOST:PORT or a serial port path (PATH@BAUD).
+        #[arg(long, value_name = "ADDR")]
+        device: String,
+        /// Seconds to wait for each answer.
+        #[arg(long, value_name = "S", default_value_t = 10)]
+        timeout: u64,
+    },
+    /// Scan: upload the plan, stream the rows of a dump to the camera (standing in for its
+    /// sensor) and write what it sends back — its candidate file, the same bytes
+    /// `fsm decode` writes, or raw rows with --raw.
+    Scan {
+        /// Scan-plan file.
+        #[arg(long, value_name = "FILE")]
+        plan: PathBuf,
+        /// The camera: tcp://HOST:PORT or a serial port path (PATH@BAUD).
+        #[arg(long, value_name = "ADDR")]
+        device: String,
+        /// Row dump whose rows are sent.
+        #[arg(long, value_name = "FILE")]
+        dump: PathBuf,
+        /// Output file (written whole or not at all).
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+        /// Ask for raw rows (a row dump) instead of candidates.
+        #[arg(long)]
+        raw: bool,
+        /// Seconds to wait for each answer.
+        #[arg(long, value_name = "S", default_value_t = 10)]
+        timeout: u64,
+    },
+}
+
+fn link_error(device: &str) -> impl Fn(client::ClientError) -> Error + '_ {
+    move |e| Error::Usage(format!("{device}: {e}"))
+}
+
+pub fn upload(args: UploadArgs) -> Result<()> {
+    let plan = super::load_plan(&args.plan)?;
+    let (fingerprint, info) =
+        client::upload(&args.device, &plan, Duration::from_secs(args.timeout))
+            .map_err(link_error(&args.device))?;
+    eprintln!(
+        "{}: plan {} accepted (fingerprint {fingerprint:016x}); camera protocol {}, up to {} pixels per row, {} candidates per pixel",
+        args.device,
+        args.plan.display(),
+        info.protocol_version,
+        info.max_width,
+        info.candidate_capacity
+    );
+    Ok(())
+}
+
+pub fn camera(args: CameraArgs) -> Result<()> {
+    match args.command {
+        CameraCommand::Info { device, timeout } => {
+            let info = Client::connect(&device, Duration::from_secs(timeout))
+                .and_then(|mut c| c.hello())
+                .map_err(link_error(&device))?;
+            println!("protocol version   {}", info.protocol_version);
+            println!("max pixels per row {}", info.max_width);
+            println!("max row samples    {}", info.max_row_samples);
+            println!("max table floats   {}", info.max_table_floats);
+            println!("candidates/pixel   {}", info.candidate_capacity);
+            println!("max frame bytes    {}", info.max_frame_len);
+            match info.plan_fingerprint {
+                Some(f) => println!("loaded plan        {f:016x}"),
+                None => println!("loaded plan        none"),
+            }
+            Ok(())
+        }
+        CameraCommand::Scan {
+            plan,
+            device,
+            dump,
+            out,
+            raw,
+            timeout,
+        } => {
+            let scan_plan = super::load_plan(&plan)?;
+            let output = if raw {
+                RowOutput::Raw
+            } else {
+                RowOutput::Candidates
+            };
+            let summary = client::scan_dump_file(
+                &device,
+                &scan_plan,
+                &dump,
+                output,
+                &out,
+                Duration::from_secs(timeout),
+            )
+            .map_err(link_error(&device))?;
+            eprintln!(
+                "{device}: {} rows of {} scanned (plan {:016x}), {} bytes -> {}",
+                summary.rows,
+                dump.display(),
+                summary.fingerprint,
+                summary.bytes,
+                out.display()
+            );
+            Ok(())
+        }
+    }
+}
