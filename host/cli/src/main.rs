@@ -35,6 +35,7 @@ enum Command {
     Demo(commands::demo::Args),
     Upload(commands::camera::UploadArgs),
     Camera(commands::camera::CameraArgs),
+    Calibrate(commands::calibrate::Args),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +51,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => commands::demo::run(args),
         Command::Upload(args) => commands::camera::upload(args),
         Command::Camera(args) => commands::camera::camera(args),
+        Command::Calibrate(args) => commands::calibrate::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! One module per subcommand, plus the argument groups they share.
 
+pub mod calibrate;
 pub mod camera;
 pub mod convert;
 pub mod decode;
