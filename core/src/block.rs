@@ -93,6 +93,8 @@ impl<F: Fn(u16) -> u16> MaskLevels<F> {
 }
 
 /// Adds every (guarded peak, lit block) combination of `group` to `out` (eqs. 18–20).
+///
+/// Returns whether the group's view is aliased ([`aliased`]).
 pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
     plan: &ScanPlan,
     coding: &BlockCoding,
@@ -101,13 +103,15 @@ pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
     masks: &MaskLevels<F>,
     range: &ColumnRange,
     out: &mut PixelCandidates<K>,
-) {
+) -> bool {
     let margin = masks.margin(plan);
+    let mut lit_masks = 0usize;
     for mask in 0..masks.count {
         let excess = masks.excess(mask);
         if !(excess > margin && excess > 0.0) {
             continue;
         }
+        lit_masks += 1;
         let blocks = plan.mask_blocks(group, mask);
         for block in core::iter::once(blocks.first).chain(blocks.second) {
             for (rank, peak) in peaks.peaks.iter().enumerate() {
@@ -131,4 +135,23 @@ pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
             }
         }
     }
+    aliased(plan, peaks, lit_masks)
+}
+
+/// Whether lights of different blocks are unresolved in a group's local column domain (paper
+/// §IV-C): more masks are lit than the spectrum has peaks (guarded or not), so a peak holds the
+/// light of two blocks; or two peaks are closer than `2Δc`, the c-domain's resolution, so each
+/// is pulled towards the other. Either way a peak's column is a mixture.
+fn aliased(plan: &ScanPlan, peaks: &PeakList, lit_masks: usize) -> bool {
+    let peaks = &peaks.peaks;
+    if peaks.is_empty() {
+        return false;
+    }
+    let separable = 2.0 * plan.column_resolution();
+    lit_masks > peaks.len()
+        || peaks.iter().enumerate().any(|(i, a)| {
+            peaks[i + 1..]
+                .iter()
+                .any(|b| (a.column - b.column).abs() < separable)
+        })
 }

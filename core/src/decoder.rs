@@ -369,6 +369,7 @@ impl<'t> Decoder<'t> {
             range = range.intersect(&limits[x]);
         }
         let sample = |frame: usize| row.frames[frame * row.width + x];
+        let mut aliased_in_every_group = true;
         for group in plan.groups() {
             if self.load(row, x, group, scratch) {
                 out.flags.insert(PixelFlags::SATURATED);
@@ -405,9 +406,13 @@ impl<'t> Decoder<'t> {
                     if masks.saturated(saturation) || dark >= saturation {
                         out.flags.insert(PixelFlags::SATURATED);
                     }
-                    block::recover(plan, &coding, group, &peaks, &masks, &range, out);
+                    aliased_in_every_group &=
+                        block::recover(plan, &coding, group, &peaks, &masks, &range, out);
                 }
             }
+        }
+        if matches!(plan.method, Method::Efsm(_)) && aliased_in_every_group {
+            out.flags.insert(PixelFlags::ALIASED);
         }
         out.sort();
     }

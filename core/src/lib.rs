@@ -12,7 +12,7 @@
 //! | mean removal, window, zero padding, real DFT | [`spectrum`] | §III-D, eq. 9 |
 //! | modelled spectrum of one lit column | [`kernel`] | SPEC §2 |
 //! | peaks without sidelobes (CLEAN) | [`search`] | §III-D, SPEC §2 |
-//! | sub-pixel column | [`deconvolution`], [`peak`] | refs. [31], [42] |
+//! | sub-pixel column | [`deconvolution`], [`peak`] | refs. \[31\], \[42\] |
 //! | EFSM border guard, blocks, candidates | [`block`] | eqs. 16–20 |
 //! | candidates of a pixel | [`candidate`] | eq. 18 |
 //! | one temporal row → candidates of every pixel | [`decoder`] | §III-F, §IV-B |

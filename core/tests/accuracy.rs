@@ -3,7 +3,7 @@
 
 mod support;
 
-use fsm_core::{GroupCount, GroupSet, PixelCandidates, ScanPlan};
+use fsm_core::{GroupCount, GroupSet, PixelCandidates, PixelFlags, ScanPlan};
 use support::{Harness, Noise, Pixel};
 
 fn decode_all<const K: usize>(
@@ -218,4 +218,47 @@ fn two_lights_more_than_two_resolution_steps_apart_are_both_found() {
             }
         }
     }
+}
+
+/// EFSM cannot tell two lights apart whose local columns fall within `2Δc` of each other
+/// modulo `cB` (paper §IV-C): both groups see one blended peak, or two peaks pulled towards
+/// each other. The decoder flags such pixels aliased; lights further apart modulo `cB` are
+/// decoded exactly and not flagged; BFSM never flags.
+#[test]
+fn efsm_flags_lights_unresolved_modulo_the_block_width() {
+    let plan = ScanPlan::paper_efsm(GroupCount::Two);
+    let cb = 64.0;
+    let two_dc = 2.0 * plan.column_resolution() as f64;
+    let direct = 308.7;
+    // A mirrored light in another block, at `offset` local columns from the direct one.
+    let pixel = |offset: f64| {
+        Pixel::spot(direct, 0.7, 1500.0).plus(Pixel::spot(direct - 2.0 * cb + offset, 0.7, 900.0))
+    };
+    let unresolved = [0.0, 0.8, 1.6, 2.5, 3.2, -1.6, -3.2];
+    let resolved = [two_dc + 1.0, 9.5, 20.0, -20.0, -(two_dc + 1.0)];
+    let pixels: Vec<Pixel> = unresolved
+        .iter()
+        .chain(&resolved)
+        .map(|&o| pixel(o))
+        .chain([Pixel::spot(direct, 0.7, 1500.0)])
+        .collect();
+    let decoded = decode_all::<8>(plan, &pixels, 11);
+    for (p, offset) in decoded.iter().zip(&unresolved) {
+        assert!(
+            p.flags.contains(PixelFlags::ALIASED),
+            "offset {offset}: not flagged, {p:?}"
+        );
+    }
+    for (p, offset) in decoded[unresolved.len()..].iter().zip(&resolved) {
+        assert!(
+            !p.flags.contains(PixelFlags::ALIASED),
+            "offset {offset}: flagged, {p:?}"
+        );
+        let truth = pixels[0].centroid_near(direct);
+        assert!(nearest_error(p, truth) < 0.05, "offset {offset}: {p:?}");
+    }
+    assert!(!decoded.last().unwrap().flags.contains(PixelFlags::ALIASED));
+
+    let bfsm = decode_all::<8>(ScanPlan::paper_bfsm(), &pixels, 12);
+    assert!(bfsm.iter().all(|p| !p.flags.contains(PixelFlags::ALIASED)));
 }

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # End-to-end check of the bare-metal firmware, the one entry point `.ci/run` calls: install what
 # is missing, build the ARM ELF, cross-check its candidates against the host's decode under
-# QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections), check how it
+# QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections, on the firmware's
+# own mirror scene and on the simulator's plane_mirror), check how it
 # refuses bad input, the determinism of its instruction counts, every failure path's exit
 # code, the Rust cross-check test, and (if defmt-print is installed) defmt logging.
 # Non-interactive. Ends with the line `N passed, M failed` and exits non-zero if anything failed.
@@ -71,6 +72,29 @@ if FW_ELF="$ELF" "$S/crosscheck-arm.sh" --rows 32 --width 48 >crosscheck.txt 2>&
 else
     cat crosscheck.txt
     bad "crosscheck-arm.sh"
+fi
+
+# 2b. The same cross-check on the project's light-transport simulator: `fsm simulate` renders
+#     plane_mirror (a diffuse plane lit directly and through a mirror) at 48 x 32 pixels, `fsm plan
+#     --wire` gives the 64-byte plan the firmware takes. (The dev build: `cargo test --workspace`
+#     has built it already.)
+"$HOST_CARGO" build -q --manifest-path "$FW_DIR/../Cargo.toml" -p fsm-cli --bin fsm
+FSM="$TARGET_DIR/debug/fsm"
+sim_ok=1
+for p in paper-bfsm paper-efsm-2; do
+    "$FSM" simulate --scene plane_mirror --preset "$p" --camera 48x32 --out "sim-$p" >/dev/null \
+        && "$FSM" plan --check "sim-$p/plan.toml" --wire "sim-$p/plan.bin" >/dev/null 2>&1 \
+        || sim_ok=0
+done
+if [ "$sim_ok" = 1 ] && FW_ELF="$ELF" \
+    FW_DUMP_BFSM="$WORK/sim-paper-bfsm/scan.dump" FW_PLAN_BFSM="$WORK/sim-paper-bfsm/plan.bin" \
+    FW_DUMP_EFSM2="$WORK/sim-paper-efsm-2/scan.dump" FW_PLAN_EFSM2="$WORK/sim-paper-efsm-2/plan.bin" \
+    "$S/crosscheck-arm.sh" >crosscheck-sim.txt 2>&1; then
+    grep -E '^(identical|ok)' crosscheck-sim.txt
+    ok "crosscheck-arm.sh on fsm simulate plane_mirror (paper BFSM and EFSM 2 groups, 32 rows x 48 pixels): bit-identical"
+else
+    cat crosscheck-sim.txt 2>/dev/null || true
+    bad "crosscheck-arm.sh on fsm simulate plane_mirror"
 fi
 
 # 3. Bad input: a dump of another plan, a truncated dump. Refused with a message naming what is

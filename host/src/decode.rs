@@ -65,6 +65,9 @@ pub struct DecodedRow {
     pub saturated_pixels: u32,
     /// Pixels whose candidate list overflowed.
     pub truncated_pixels: u32,
+    /// EFSM pixels whose lights are unresolved modulo the block width
+    /// ([`PixelFlags::ALIASED`]).
+    pub aliased_pixels: u32,
 }
 
 /// What a decode did.
@@ -82,6 +85,9 @@ pub struct DecodeSummary {
     pub saturated_pixels: u64,
     /// Pixels whose candidate list overflowed.
     pub truncated_pixels: u64,
+    /// EFSM pixels whose lights are unresolved modulo the block width
+    /// ([`PixelFlags::ALIASED`]).
+    pub aliased_pixels: u64,
     /// Rows per batch read at once.
     pub rows_per_batch: u32,
     /// Wall time, seconds.
@@ -195,6 +201,7 @@ pub fn decode_batches(
                 summary.candidates += d.candidates as u64;
                 summary.saturated_pixels += d.saturated_pixels as u64;
                 summary.truncated_pixels += d.truncated_pixels as u64;
+                summary.aliased_pixels += d.aliased_pixels as u64;
                 sink(d)?;
                 next_row += 1;
             }
@@ -293,6 +300,7 @@ fn decode_row(
         candidates: 0,
         saturated_pixels: 0,
         truncated_pixels: 0,
+        aliased_pixels: 0,
     };
     for p in pixels.iter() {
         decoded
@@ -302,6 +310,7 @@ fn decode_row(
         decoded.candidates += p.candidates.len() as u32;
         decoded.saturated_pixels += p.flags.contains(PixelFlags::SATURATED) as u32;
         decoded.truncated_pixels += p.flags.contains(PixelFlags::TRUNCATED) as u32;
+        decoded.aliased_pixels += p.flags.contains(PixelFlags::ALIASED) as u32;
     }
     Ok(decoded)
 }

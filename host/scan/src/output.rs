@@ -27,6 +27,8 @@ pub struct ScanSummary {
     pub height: usize,
     /// Candidates the decoder reported.
     pub candidates: u64,
+    /// EFSM pixels the decoder flagged aliased (two lights unresolved modulo the block width).
+    pub aliased_pixels: u64,
     /// Candidates that triangulated inside the measurement volume.
     pub candidates_in_volume: usize,
     /// Pixels with a point.
@@ -52,6 +54,8 @@ pub struct SelectionSummary {
     pub epsilon_mm: f32,
     /// `β`, per mm.
     pub beta_per_mm: f32,
+    /// Whether aliased pixels were given no point.
+    pub drop_aliased: bool,
 }
 
 /// Writes every output of a scan into the folder `dir` (a staging folder: the caller commits

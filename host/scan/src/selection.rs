@@ -150,6 +150,10 @@ pub struct SelectionParams {
     pub beta_per_mm: f32,
     /// Drop a choice that no chosen neighbour lies within `2ε` of.
     pub drop_isolated: bool,
+    /// Give no point to a pixel the decoder flagged [`fsm_core::PixelFlags::ALIASED`] (EFSM:
+    /// two lights within `2Δc` of each other modulo the block width, so its candidates are
+    /// mixtures, off by up to a column): a missing point rather than a wrong one.
+    pub drop_aliased: bool,
 }
 
 impl SelectionParams {
@@ -164,6 +168,7 @@ impl SelectionParams {
             epsilon_mm: 4.0 * footprint_mm,
             beta_per_mm: 1.0 / footprint_mm,
             drop_isolated: true,
+            drop_aliased: true,
         }
     }
 }

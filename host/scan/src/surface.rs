@@ -115,6 +115,7 @@ impl Surface {
             decoded.width,
             decoded.height,
             &decoded.pixels,
+            params.drop_aliased,
         );
         let triangulated = std::time::Instant::now();
         let surface = Surface::select(&field, params);

@@ -4,7 +4,7 @@
 //! per-pixel column range of that volume can also be given to the decoder beforehand
 //! ([`column_limits`]), which drops them before they are even triangulated.
 
-use fsm_core::{ColumnRange, PixelCandidates};
+use fsm_core::{ColumnRange, PixelCandidates, PixelFlags};
 use fsm_geometry::Calibration;
 use nalgebra::Point2;
 use rayon::prelude::*;
@@ -12,13 +12,15 @@ use rayon::prelude::*;
 use crate::selection::{CandidateField, Label};
 
 /// The candidates of `height` camera rows from `first_row` on, `width` pixels each (row-major
-/// `pixels`), triangulated.
+/// `pixels`), triangulated; none for the pixels flagged [`PixelFlags::ALIASED`] when
+/// `drop_aliased`.
 pub fn candidate_field<const K: usize>(
     calibration: &Calibration,
     first_row: usize,
     width: usize,
     height: usize,
     pixels: &[PixelCandidates<K>],
+    drop_aliased: bool,
 ) -> CandidateField {
     assert_eq!(pixels.len(), width * height, "one candidate list per pixel");
     let rows: Vec<Vec<Vec<Label>>> = (0..height)
@@ -27,10 +29,14 @@ pub fn candidate_field<const K: usize>(
             (0..width)
                 .map(|x| {
                     let pixel = Point2::new(x as f64, (first_row + y) as f64);
+                    let candidates = &pixels[y * width + x];
+                    if drop_aliased && candidates.flags.contains(PixelFlags::ALIASED) {
+                        return Vec::new();
+                    }
                     let Ok(ray) = calibration.pixel_ray(pixel) else {
                         return Vec::new();
                     };
-                    pixels[y * width + x]
+                    candidates
                         .candidates
                         .iter()
                         .filter_map(|c| {

@@ -1,6 +1,6 @@
 //! `fsm plan`: write a scan-plan file from a preset (with overrides), or check one.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
 use fsm_core::{Method, ScanPlan};
@@ -14,6 +14,7 @@ use fsm_host::{Error, Result};
 ///   fsm plan --preset paper-bfsm --out plan.toml
 ///   fsm plan --preset paper-efsm-2 --set decoding.noise_factor=5 --out plan.json
 ///   fsm plan --check plan.toml
+///   fsm plan --check plan.toml --wire plan.bin
 ///
 /// Overrides use the file's dotted field names (see the README, "Plan files"); e.g.
 /// `--set band.count=512`, `--set method.Efsm.block_width=32`, `--set references.white=false`.
@@ -33,6 +34,10 @@ pub struct Args {
     /// Check a plan file: print what it describes, or the first field that is wrong.
     #[arg(long, value_name = "FILE")]
     check: Option<PathBuf>,
+    /// Also write the plan's 64-byte wire form (fsm_core::wire::plan: the bytes `fsm upload`
+    /// sends and the firmware's plan mailbox takes), with --preset or --check.
+    #[arg(long, value_name = "FILE")]
+    wire: Option<PathBuf>,
     /// Syntax when printing (default TOML).
     #[arg(long, value_enum, default_value_t = Syntax::Toml)]
     format: Syntax,
@@ -61,7 +66,7 @@ pub fn run(args: Args) -> Result<()> {
         let plan = plan_file::read_plan(path)?;
         println!("{}: valid plan", path.display());
         print_summary(&plan);
-        return Ok(());
+        return write_wire(&plan, args.wire.as_deref());
     }
     let Some(preset) = args.preset else {
         return Err(Error::Usage(
@@ -98,6 +103,15 @@ pub fn run(args: Args) -> Result<()> {
             };
             print!("{}", plan_file::render_plan(&plan, syntax));
         }
+    }
+    write_wire(&plan, args.wire.as_deref())
+}
+
+/// Writes the plan's wire bytes to `path`, whole or not at all.
+fn write_wire(plan: &ScanPlan, path: Option<&Path>) -> Result<()> {
+    if let Some(path) = path {
+        fsm_host::outputs::write_file(path, &plan.to_bytes())?;
+        eprintln!("wrote {} ({} bytes)", path.display(), plan.to_bytes().len());
     }
     Ok(())
 }

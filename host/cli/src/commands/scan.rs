@@ -59,6 +59,11 @@ pub struct Args {
     /// (default: 1 per pixel footprint).
     #[arg(long, value_name = "PER_MM")]
     beta_per_mm: Option<f32>,
+    /// Keep the points of EFSM pixels whose lights are unresolved modulo the block width
+    /// (flagged aliased by the decoder; their columns are off by up to a column). By
+    /// default they get no point.
+    #[arg(long)]
+    keep_aliased: bool,
     /// Decoding threads (default: one per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
@@ -115,6 +120,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     params.epsilon_mm = args.epsilon_mm.unwrap_or(params.epsilon_mm);
     params.beta_per_mm = args.beta_per_mm.unwrap_or(params.beta_per_mm);
+    params.drop_aliased = !args.keep_aliased;
     let (surface, times) = Surface::reconstruct(&decoded, &calibration, &params);
     let summary = ScanSummary {
         method: match plan.method {
@@ -134,7 +140,9 @@ pub fn run(args: Args) -> Result<()> {
             paths: args.paths,
             epsilon_mm: params.epsilon_mm,
             beta_per_mm: params.beta_per_mm,
+            drop_aliased: params.drop_aliased,
         },
+        aliased_pixels: decode_summary.aliased_pixels,
         calibration_checksum: format!("{:08x}", calibration.checksum()),
     };
     write_scan(staged.path(), &surface, &summary)?;

@@ -8,5 +8,7 @@ pub struct Args {}
 
 /// Runs `fsm calibrate response`.
 pub fn run(_args: Args) -> Result<()> {
-    Err(Error::Usage("fsm calibrate response is not built yet".into()))
+    Err(Error::Usage(
+        "fsm calibrate response is not built yet".into(),
+    ))
 }
