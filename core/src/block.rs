@@ -105,13 +105,11 @@ pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
     out: &mut PixelCandidates<K>,
 ) -> bool {
     let margin = masks.margin(plan);
-    let mut lit_masks = 0usize;
     for mask in 0..masks.count {
         let excess = masks.excess(mask);
         if !(excess > margin && excess > 0.0) {
             continue;
         }
-        lit_masks += 1;
         let blocks = plan.mask_blocks(group, mask);
         for block in core::iter::once(blocks.first).chain(blocks.second) {
             for (rank, peak) in peaks.peaks.iter().enumerate() {
@@ -135,23 +133,36 @@ pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
             }
         }
     }
-    aliased(plan, peaks, lit_masks)
+    aliased(plan, peaks, masks)
 }
 
 /// Whether lights of different blocks are unresolved in a group's local column domain (paper
-/// §IV-C): more masks are lit than the spectrum has peaks (guarded or not), so a peak holds the
-/// light of two blocks; or two peaks are closer than `2Δc`, the c-domain's resolution, so each
-/// is pulled towards the other. Either way a peak's column is a mixture.
-fn aliased(plan: &ScanPlan, peaks: &PeakList, lit_masks: usize) -> bool {
+/// §IV-C), so that a peak's column is a mixture of two lights:
+/// - a peak holds more light than the brightest lit block sends: its fringe modulation over
+///   `PB` exceeds that block's mask excess (by [`SHARED_PEAK_RATIO`] and the mask noise), so
+///   the light of two blocks falls on one local column; or
+/// - two peaks are closer than `2Δc`, the c-domain's resolution, and pull on each other.
+///
+/// Light spread over many columns (diffuse interreflection) lights masks but makes no peak, so
+/// it is not aliasing.
+fn aliased<F: Fn(u16) -> u16>(plan: &ScanPlan, peaks: &PeakList, masks: &MaskLevels<F>) -> bool {
     let peaks = &peaks.peaks;
-    if peaks.is_empty() {
-        return false;
-    }
+    let brightest = (0..masks.count)
+        .map(|i| masks.excess(i))
+        .fold(0.0f32, f32::max);
+    let block_light =
+        SHARED_PEAK_RATIO * brightest + plan.decoding.mask_noise_factor * masks.noise_dn;
+    let light = |amplitude: f32| amplitude / plan.levels.amplitude;
     let separable = 2.0 * plan.column_resolution();
-    lit_masks > peaks.len()
+    peaks.iter().any(|p| light(p.amplitude) > block_light)
         || peaks.iter().enumerate().any(|(i, a)| {
             peaks[i + 1..]
                 .iter()
                 .any(|b| (a.column - b.column).abs() < separable)
         })
 }
+
+/// How much more light than the brightest block sends a peak must hold to be the light of two
+/// blocks: above the amplitude estimate's error (< 1%) and the share of a light near a block
+/// border that spills into the next block.
+const SHARED_PEAK_RATIO: f32 = 1.3;

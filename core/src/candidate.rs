@@ -68,9 +68,9 @@ impl PixelFlags {
     /// More candidates than the list holds: the weakest were dropped.
     pub const TRUNCATED: PixelFlags = PixelFlags(2);
     /// EFSM: in every group, lights of two blocks fall within `2Δc` of each other in the local
-    /// column domain (paper §IV-C): more masks light the pixel than its spectrum has peaks, or
-    /// two of its peaks are closer than `2Δc`. Such peaks are mixtures, off by up to a column,
-    /// so a scan should not trust this pixel's candidates.
+    /// column domain (paper §IV-C): a peak holds more light than any one block sends, or two
+    /// peaks are closer than `2Δc`. Such peaks are mixtures, off by up to a column, so a scan
+    /// should not trust this pixel's candidates.
     pub const ALIASED: PixelFlags = PixelFlags(4);
 
     /// Whether every flag of `other` is set.
