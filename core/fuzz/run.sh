@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every fuzz target of fsm-core for the given number of seconds each (default 20).
 # Uses the nightly toolchain when present, otherwise the stable one with RUSTC_BOOTSTRAP (the
-# fuzzing flags are unstable), and installs cargo-fuzz if it is missing.
+# fuzzing flags are unstable), and installs cargo-fuzz if it is missing. The seed is fixed (FUZZ_SEED,
+# default 1) so a CI run can be replayed; set it to 0 for libFuzzer's own random seed.
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds=${1:-20}
@@ -14,7 +15,7 @@ else
 fi
 for target in $("${fuzz[@]}" list); do
     echo "== fuzz $target for ${seconds}s"
-    "${fuzz[@]}" run "$target" -- -max_total_time="$seconds" 2>&1 | grep -E '^Done|panicked|ERROR|SUMMARY' || true
+    "${fuzz[@]}" run "$target" -- -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" 2>&1 | grep -E '^Done|panicked|ERROR|SUMMARY' || true
     if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
         echo "fuzz $target found a crash: core/fuzz/artifacts/$target" >&2
         exit 1

@@ -61,6 +61,29 @@ fn invalid_plan_bytes_are_refused() {
     b[16] = 63; // odd block width: decodes, then fails validation, naming the rule
     let e = ScanPlan::from_bytes(&b).unwrap_err();
     assert!(e.to_string().contains("cB must be even"), "{e}");
+    // BFSM carries no EFSM fields: a non-zero block width or a guard of -0.0 (which would
+    // re-encode as +0.0, found by fuzzing) is refused by name.
+    let bfsm = ScanPlan::paper_bfsm().to_bytes();
+    let mut b = bfsm;
+    b[23] = 0x80;
+    assert!(matches!(
+        ScanPlan::from_bytes(&b),
+        Err(WireError::Field {
+            field: "border_guard",
+            value: 0x8000_0000,
+            ..
+        })
+    ));
+    let mut b = bfsm;
+    b[16] = 64;
+    assert!(matches!(
+        ScanPlan::from_bytes(&b),
+        Err(WireError::Field {
+            field: "block_width",
+            value: 64,
+            ..
+        })
+    ));
     let mut b = good;
     b[60] = 9; // version
     assert!(matches!(

@@ -132,7 +132,13 @@ impl ScanPlan {
             return Err(field("reserved", reserved as u64));
         }
         let method = match (method, groups) {
-            (0, 0) if block_width == 0 && border_guard == 0.0 => Method::Bfsm,
+            // BFSM leaves the EFSM fields zero, bit for bit: a -0.0 guard would decode but
+            // re-encode as +0.0, and the fingerprint would not be that of the bytes received.
+            (0, 0) if block_width != 0 => return Err(field("block_width", block_width as u64)),
+            (0, 0) if border_guard.to_bits() != 0 => {
+                return Err(field("border_guard", border_guard.to_bits() as u64))
+            }
+            (0, 0) => Method::Bfsm,
             (1, 1 | 2) => Method::Efsm(BlockCoding {
                 block_width,
                 groups: if groups == 1 {
