@@ -4,6 +4,11 @@
 //! Rows are rendered when asked for, so a capture of any size costs the memory of its light
 //! transport only. Each row's noise comes from its own generator seeded by `(seed, row)`, so a
 //! row is the same whether rendered alone, in any order, or as part of a whole dump.
+//!
+//! What the projector emits for a pattern value is [`System::emitted`] of it. To render a
+//! projector driven with other codes than the pattern values (a gamma pre-correction), wrap the
+//! sequence in [`DrivenCodes`]; [`UniformLevels`] is the grey-level sequence of a projector
+//! response measurement.
 
 use std::io::Write;
 use std::path::Path;
@@ -283,4 +288,96 @@ fn row_seed(seed: u64, row: u32) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
+}
+
+/// A pattern sequence as the projector is driven with it: every value of `patterns` first goes
+/// through `code` (e.g. a gamma pre-correction rounded to the projector's 8-bit codes), and the
+/// result is what the projector is given, so [`System::emitted`] (gamma, black level) applies
+/// to the code: emitted light = response(code(value)). Same frames and fingerprint as
+/// `patterns`, so its captures decode with the plan. `code` should map `[0, 1]` into `[0, 1]`.
+///
+/// ```
+/// use fsm_core::ScanPlan;
+/// use fsm_sim::capture::DrivenCodes;
+/// use fsm_sim::PatternSequence;
+///
+/// let plan = ScanPlan::paper_bfsm();
+/// // Pre-corrected for a projector gamma of 2.2, as 8-bit codes.
+/// let driven = DrivenCodes::new(&plan, |v: f32| (v.powf(1.0 / 2.2) * 255.0).round() / 255.0);
+/// assert_eq!(driven.frame_count(), plan.frame_count());
+/// assert_eq!(driven.fingerprint(), plan.fingerprint());
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct DrivenCodes<'a, P, F> {
+    patterns: &'a P,
+    code: F,
+}
+
+impl<'a, P: PatternSequence, F: Fn(f32) -> f32> DrivenCodes<'a, P, F> {
+    /// `patterns` with every value passed through `code`.
+    pub fn new(patterns: &'a P, code: F) -> Self {
+        DrivenCodes { patterns, code }
+    }
+}
+
+impl<P: PatternSequence, F: Fn(f32) -> f32> PatternSequence for DrivenCodes<'_, P, F> {
+    fn projector_columns(&self) -> u16 {
+        self.patterns.projector_columns()
+    }
+
+    fn frame_count(&self) -> usize {
+        self.patterns.frame_count()
+    }
+
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
+        (self.code)(self.patterns.frame_intensity(frame, column))
+    }
+
+    fn fingerprint(&self) -> u64 {
+        self.patterns.fingerprint()
+    }
+}
+
+/// Uniform grey frames, the projector-response measurement: frame `i` shows `levels[i]` (a
+/// code, fraction of full scale) on every column of a `columns`-column projector.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UniformLevels {
+    columns: u16,
+    levels: Vec<f32>,
+}
+
+impl UniformLevels {
+    /// The frames of `levels` on `columns` columns.
+    pub fn new(columns: u16, levels: Vec<f32>) -> Self {
+        UniformLevels { columns, levels }
+    }
+
+    /// The codes shown, in frame order.
+    pub fn levels(&self) -> &[f32] {
+        &self.levels
+    }
+}
+
+impl PatternSequence for UniformLevels {
+    fn projector_columns(&self) -> u16 {
+        self.columns
+    }
+
+    fn frame_count(&self) -> usize {
+        self.levels.len()
+    }
+
+    fn frame_intensity(&self, frame: usize, _column: u32) -> f32 {
+        self.levels.get(frame).copied().unwrap_or(0.0)
+    }
+
+    /// CRC-64 of a tag, the column count and the levels' bits.
+    fn fingerprint(&self) -> u64 {
+        let mut bytes = b"fsm-grey-levels".to_vec();
+        bytes.extend(self.columns.to_le_bytes());
+        for l in &self.levels {
+            bytes.extend(l.to_bits().to_le_bytes());
+        }
+        fsm_core::wire::crc64(&bytes)
+    }
 }

@@ -117,7 +117,8 @@ impl System {
         self.calibration.camera.height_px()
     }
 
-    /// Projector output for a pattern value in `[0, 1]` (gamma, black level).
+    /// Projector output for a pattern value in `[0, 1]` (gamma, black level): the value is the
+    /// code the projector is given (pre-corrected codes: [`crate::capture::DrivenCodes`]).
     pub fn emitted(&self, value: f32) -> f32 {
         let v = value.clamp(0.0, 1.0) as f64;
         let shaped = if self.gamma == 1.0 {
