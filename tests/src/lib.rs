@@ -52,6 +52,7 @@ pub mod radiometry;
 pub mod scene;
 pub mod sensor;
 pub mod system;
+pub mod target;
 pub mod transport;
 pub mod truth;
 

@@ -6,7 +6,7 @@ pub mod shape;
 
 use nalgebra::{Point3, Vector3};
 
-pub use shape::{Hit, Material, Shape, Surface};
+pub use shape::{checker_colour, Hit, Material, Shape, Surface};
 
 /// A scene to render: surfaces in the camera frame (the camera at the origin looking along `+z`,
 /// image `x` along `+x`, image `y` along `+y`, i.e. downwards), mm.

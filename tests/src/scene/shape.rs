@@ -1,4 +1,5 @@
-//! Surfaces the simulator traces: rectangles and spheres, with their materials.
+//! Surfaces the simulator traces: rectangles, spheres and the two colours of a printed
+//! checkerboard, with their materials.
 
 use nalgebra::{Point3, Unit, Vector3};
 
@@ -25,6 +26,61 @@ pub enum Shape {
         /// Radius, mm.
         radius_mm: f64,
     },
+    /// One colour of a checkerboard printed on a plane: its dark squares (`dark`), or its light
+    /// squares together with the margin around the squares (`!dark`). The two colours of one
+    /// board tile it exactly (every point of the board is in one of them, by the same
+    /// floor-division test), so a board is two coplanar surfaces of different albedo and the
+    /// camera's footprint integration anti-aliases its edges like any other surface border.
+    ///
+    /// Board coordinates of a point `p` of the plane: `bx = (p − origin)·axis_x`,
+    /// `by = (p − origin)·axis_y`. Inner corner `(c, r)` is at `(c, r)·square_mm`; the squares
+    /// cover `bx ∈ [−s, inner[0]·s]`, `by ∈ [−s, inner[1]·s]` (`s = square_mm`), the square
+    /// `[a·s, (a+1)·s) × [b·s, (b+1)·s)` is dark when `a + b` is even (the square diagonally
+    /// outside corner (0, 0) is dark), and the margin extends `margin_mm` beyond the squares.
+    /// Front normal `axis_x × axis_y` (into the board when it faces the camera).
+    Checker {
+        /// Inner corner (0, 0), mm.
+        origin: Point3<f64>,
+        /// Unit vector along the board's rows (board `+x`).
+        axis_x: Vector3<f64>,
+        /// Unit vector down the board's columns (board `+y`), perpendicular to `axis_x`.
+        axis_y: Vector3<f64>,
+        /// Side of a square, mm.
+        square_mm: f64,
+        /// Inner corners along `+x` and along `+y`.
+        inner: [u32; 2],
+        /// Width of the margin around the squares, mm (light).
+        margin_mm: f64,
+        /// The dark squares (`true`) or the light squares and the margin (`false`).
+        dark: bool,
+    },
+}
+
+/// Which colour of a checkerboard the board point `(bx, by)` (mm) has: `Some(true)` dark,
+/// `Some(false)` light (a light square or the margin), `None` off the board. See
+/// [`Shape::Checker`].
+pub fn checker_colour(
+    bx: f64,
+    by: f64,
+    square_mm: f64,
+    inner: [u32; 2],
+    margin_mm: f64,
+) -> Option<bool> {
+    let s = square_mm;
+    let (wx, wy) = (inner[0] as f64 * s, inner[1] as f64 * s);
+    if !(bx >= -s - margin_mm
+        && bx <= wx + margin_mm
+        && by >= -s - margin_mm
+        && by <= wy + margin_mm)
+    {
+        return None;
+    }
+    if bx < -s || bx >= wx || by < -s || by >= wy {
+        return Some(false);
+    }
+    let a = (bx / s).floor() as i64;
+    let b = (by / s).floor() as i64;
+    Some((a + b).rem_euclid(2) == 0)
 }
 
 /// How a surface reflects light.
@@ -117,10 +173,34 @@ impl Shape {
                 let p = origin + dir * t;
                 Some((t, p, Unit::new_normalize(p - centre)))
             }
+            Shape::Checker {
+                origin: o,
+                axis_x,
+                axis_y,
+                square_mm,
+                inner,
+                margin_mm,
+                dark,
+            } => {
+                let n = axis_x.cross(&axis_y);
+                let denom = n.dot(dir);
+                if denom == 0.0 {
+                    return None;
+                }
+                let t = n.dot(&(o - origin)) / denom;
+                if !(t > t_min && t < t_max) {
+                    return None;
+                }
+                let p = origin + dir * t;
+                let d = p - o;
+                let colour =
+                    checker_colour(d.dot(&axis_x), d.dot(&axis_y), square_mm, inner, margin_mm)?;
+                (colour == dark).then(|| (t, p, Unit::new_normalize(n)))
+            }
         }
     }
 
-    /// The plane of a rectangle: `(centre, unit front normal)`.
+    /// The plane of a rectangle or a checker colour: `(a point of it, unit front normal)`.
     pub fn plane(&self) -> Option<(Point3<f64>, Unit<Vector3<f64>>)> {
         match *self {
             Shape::Rectangle {
@@ -128,11 +208,17 @@ impl Shape {
                 half_u,
                 half_v,
             } => Some((centre, Unit::new_normalize(half_u.cross(&half_v)))),
+            Shape::Checker {
+                origin,
+                axis_x,
+                axis_y,
+                ..
+            } => Some((origin, Unit::new_normalize(axis_x.cross(&axis_y)))),
             Shape::Sphere { .. } => None,
         }
     }
 
-    /// Whether a point of the rectangle's plane lies inside it.
+    /// Whether a point of the rectangle's (or the checker colour's) plane lies inside it.
     pub fn rectangle_contains(&self, p: &Point3<f64>) -> bool {
         match *self {
             Shape::Rectangle {
@@ -143,6 +229,19 @@ impl Shape {
                 let d = p - centre;
                 (d.dot(&half_u) / half_u.norm_squared()).abs() <= 1.0
                     && (d.dot(&half_v) / half_v.norm_squared()).abs() <= 1.0
+            }
+            Shape::Checker {
+                origin,
+                axis_x,
+                axis_y,
+                square_mm,
+                inner,
+                margin_mm,
+                dark,
+            } => {
+                let d = p - origin;
+                checker_colour(d.dot(&axis_x), d.dot(&axis_y), square_mm, inner, margin_mm)
+                    == Some(dark)
             }
             Shape::Sphere { .. } => false,
         }
