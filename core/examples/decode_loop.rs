@@ -2,16 +2,22 @@
 //! `core/scripts/instructions-per-pixel.sh`, which counts instructions with callgrind (exact and
 //! repeatable on a busy machine, and comparable with the firmware's count on the Cortex-A9).
 //!
-//! `cargo run --release -p fsm-core --example decode_loop -- bfsm|efsm1|efsm2 [n]`
+//! `cargo run --release -p fsm-core --example decode_loop -- bfsm|efsm1|efsm2[-shadow] [n]`
 //!
 //! Three pixels in four are lit by one column pair (1200 + 600 DN), one in four also by a second
-//! column (500 DN) elsewhere: the interreflection case.
+//! column (500 DN) elsewhere: the interreflection case. With `-shadow` (e.g. `efsm1-shadow`)
+//! every pixel is in shadow instead: ambient light and the same small noise, no fringes.
 
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let plan = match args.next().as_deref() {
+    let name = args.next();
+    let (name, shadow) = match name.as_deref().map(|n| n.strip_suffix("-shadow")) {
+        Some(Some(base)) => (Some(base), true),
+        _ => (name.as_deref(), false),
+    };
+    let plan = match name {
         Some("efsm1") => ScanPlan::paper_efsm(GroupCount::One),
         Some("efsm2") => ScanPlan::paper_efsm(GroupCount::Two),
         Some("bfsm") | None => ScanPlan::paper_bfsm(),
@@ -25,6 +31,10 @@ fn main() {
         let direct = (10 + (x * 37) % (columns - 20)) as u32;
         let indirect = (10 + (x * 91) % (columns - 20)) as u32;
         for (i, p) in plan.sequence().enumerate() {
+            if shadow {
+                frames[i * width + x] = (100.0 + 4.0 * uniform(i, x)) as u16;
+                continue;
+            }
             let mut v = 100.0
                 + 1200.0 * plan.intensity(p, direct)
                 + 600.0 * plan.intensity(p, direct + 1)
@@ -52,4 +62,13 @@ fn main() {
     }
     let candidates: usize = out.iter().map(|p| p.candidates.len()).sum();
     println!("{candidates} candidates in the last row");
+}
+
+/// Uniform in `[0, 1)`, a fixed function of frame and pixel (SplitMix64): noise without a tone.
+fn uniform(frame: usize, x: usize) -> f32 {
+    let mut z = (frame as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (x as u64) << 32;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 40) as f32 / (1u64 << 24) as f32
 }
