@@ -275,6 +275,9 @@ fn bin_range(domain: &FitDomain, first: i32, last: i32) -> Option<(usize, usize)
     Some((lo, hi))
 }
 
+/// Bins of one chunk of [`normal_equations`].
+const NORMAL_CHUNK: usize = 16;
+
 /// Ridged Gram matrix `Re(BᴴB) + λI` (full, symmetric) of the columns' responses over bins
 /// `lo..hi`, and `y = Re(Bᴴx)` when a spectrum is given.
 fn normal_equations(
@@ -287,24 +290,41 @@ fn normal_equations(
     y: &mut [f64; MAX_JOINT_COLUMNS],
 ) -> bool {
     let len = lookups.len();
+    if len > MAX_JOINT_COLUMNS {
+        return false;
+    }
+    // Bins in chunks: the responses of every column over a chunk, then the sums over its bins,
+    // each sum accumulated in bin order.
+    let mut basis = [[Complex::default(); NORMAL_CHUNK]; MAX_JOINT_COLUMNS];
     *a = [[0.0; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
     y.fill(0.0);
-    let mut basis = [Complex::default(); MAX_JOINT_COLUMNS];
-    for k in lo..hi {
-        for (b, l) in basis.iter_mut().zip(lookups.iter()) {
-            *b = kernel.response_at(l, k);
+    let mut start = lo;
+    while start < hi {
+        let n = (hi - start).min(NORMAL_CHUNK);
+        for (b, l) in basis.iter_mut().zip(lookups) {
+            kernel.responses(l, start, &mut b[..n]);
         }
+        let basis = &basis[..len];
         if let Some(spectrum) = spectrum {
-            let x = spectrum.bin(k);
-            for i in 0..len {
-                y[i] += basis[i].dot(x) as f64;
+            let x = &spectrum.as_slice()[2 * start..2 * (start + n)];
+            for (yi, b) in y.iter_mut().zip(basis) {
+                let mut sum = *yi;
+                for (bk, xk) in b[..n].iter().zip(x.chunks_exact(2)) {
+                    sum += bk.dot(Complex::new(xk[0], xk[1])) as f64;
+                }
+                *yi = sum;
             }
         }
-        for i in 0..len {
-            for j in 0..=i {
-                a[i][j] += basis[i].dot(basis[j]) as f64;
+        for (i, (row, bi)) in a.iter_mut().zip(basis).enumerate() {
+            for (aij, bj) in row[..=i].iter_mut().zip(basis) {
+                let mut sum = *aij;
+                for (p, q) in bi[..n].iter().zip(&bj[..n]) {
+                    sum += p.dot(*q) as f64;
+                }
+                *aij = sum;
             }
         }
+        start += n;
     }
     let mean_diagonal = (0..len).map(|i| a[i][i]).sum::<f64>() / len as f64;
     if mean_diagonal.is_nan() || mean_diagonal <= 0.0 {

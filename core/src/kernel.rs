@@ -252,6 +252,31 @@ impl<'t> Kernel<'t> {
         )
     }
 
+    /// `b_j(first_bin + i)` into `out[i]` for every `i`: [`Kernel::response_at`] over a run of
+    /// consecutive bins, reading the three table runs sequentially.
+    pub(crate) fn responses(&self, lookup: &ColumnLookup, first_bin: usize, out: &mut [Complex]) {
+        let n = out.len();
+        let run = |(base, start): (usize, usize)| {
+            let e = base + start + first_bin;
+            &self.table[2 * e..2 * (e + n)]
+        };
+        let (direct, mirror, zero) = (run(lookup.direct), run(lookup.mirror), run(lookup.zero));
+        let p = lookup.phase;
+        let mean = lookup.mean;
+        for (((o, d), m), z) in out
+            .iter_mut()
+            .zip(direct.chunks_exact(2))
+            .zip(mirror.chunks_exact(2))
+            .zip(zero.chunks_exact(2))
+        {
+            // The arithmetic of `response_at`, term for term.
+            *o = Complex::new(
+                0.5 * (p.re * d[0] - p.im * d[1] + p.re * m[0] + p.im * m[1]) - mean * z[0],
+                0.5 * (p.re * d[1] + p.im * d[0] + p.re * m[1] - p.im * m[0]) - mean * z[1],
+            );
+        }
+    }
+
     /// Combines weighted columns into a [`Model`] (at most [`MAX_COLUMNS`]; more are ignored).
     pub fn model<'a>(&self, columns: impl Iterator<Item = (&'a ColumnTerms, f32)>) -> Model {
         let mut m = Model::default();
