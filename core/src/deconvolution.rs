@@ -534,14 +534,16 @@ impl<'t> FitTable<'t> {
         if !negative {
             return Some((first, len));
         }
-        let mut a = [[0.0f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
+        // A system of the fit's own size: the solver's work arrays stay small.
+        let len = len.min(FIT_COLUMNS);
+        let mut a = [[0.0f64; FIT_COLUMNS]; FIT_COLUMNS];
         for i in 0..len {
             for j in 0..len {
                 a[i][j] = entry[ENTRY_HEADER + i * FIT_COLUMNS + j] as f64;
             }
         }
-        let mut y = [0.0f64; MAX_JOINT_COLUMNS];
-        let mut hint = [false; MAX_JOINT_COLUMNS];
+        let mut y = [0.0f64; FIT_COLUMNS];
+        let mut hint = [false; FIT_COLUMNS];
         for i in 0..len {
             y[i] = (0..len).map(|j| a[i][j] * out[j]).sum();
             hint[i] = out[i] > 0.0;
@@ -549,7 +551,8 @@ impl<'t> FitTable<'t> {
         if !non_negative_solve(&a, &mut y, len, &hint) {
             return None;
         }
-        *out = y;
+        out[..FIT_COLUMNS].copy_from_slice(&y);
+        out[FIT_COLUMNS..].fill(0.0);
         Some((first, len))
     }
 }
@@ -559,17 +562,17 @@ impl<'t> FitTable<'t> {
 /// stops short of 1/2 cycle per column leaves alternating weights unobserved, and noise fills
 /// them with large values of both signs. `A` is full and symmetric; the solution overwrites
 /// `y`. Returns `false` if a subproblem is not positive definite.
-fn non_negative_solve(
-    a: &[[f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS],
-    y: &mut [f64; MAX_JOINT_COLUMNS],
+fn non_negative_solve<const S: usize>(
+    a: &[[f64; S]; S],
+    y: &mut [f64; S],
     n: usize,
-    hint: &[bool; MAX_JOINT_COLUMNS],
+    hint: &[bool; S],
 ) -> bool {
     let scale = (0..n).map(|i| y[i].abs()).fold(0.0, f64::max);
     let tolerance = 1e-9 * scale.max(f64::MIN_POSITIVE);
     // Usually the weights the unconstrained solution left positive are the free set: solve on
     // them and accept if the result satisfies the optimality (KKT) conditions.
-    let mut guess = [0.0f64; MAX_JOINT_COLUMNS];
+    let mut guess = [0.0f64; S];
     if solve_free(a, y, hint, n, &mut guess) {
         let feasible = (0..n).all(|j| !hint[j] || guess[j] > 0.0);
         let optimal = (0..n).all(|j| {
@@ -580,8 +583,8 @@ fn non_negative_solve(
             return true;
         }
     }
-    let mut w = [0.0f64; MAX_JOINT_COLUMNS];
-    let mut free = [false; MAX_JOINT_COLUMNS];
+    let mut w = [0.0f64; S];
+    let mut free = [false; S];
     for _ in 0..3 * n {
         // Gradient of the objective's negative: y − A w.
         let mut best = None;
@@ -598,7 +601,7 @@ fn non_negative_solve(
         let Some(t) = best else { break };
         free[t] = true;
         loop {
-            let mut s = [0.0f64; MAX_JOINT_COLUMNS];
+            let mut s = [0.0f64; S];
             if !solve_free(a, y, &free, n, &mut s) {
                 return false;
             }
@@ -634,14 +637,14 @@ fn non_negative_solve(
 }
 
 /// Unconstrained solution over the free weights (the others held at zero), by Cholesky.
-fn solve_free(
-    a: &[[f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS],
-    y: &[f64; MAX_JOINT_COLUMNS],
-    free: &[bool; MAX_JOINT_COLUMNS],
+fn solve_free<const S: usize>(
+    a: &[[f64; S]; S],
+    y: &[f64; S],
+    free: &[bool; S],
     n: usize,
-    out: &mut [f64; MAX_JOINT_COLUMNS],
+    out: &mut [f64; S],
 ) -> bool {
-    let mut index = [0usize; MAX_JOINT_COLUMNS];
+    let mut index = [0usize; S];
     let mut m = 0;
     for j in 0..n {
         if free[j] {
@@ -649,8 +652,8 @@ fn solve_free(
             m += 1;
         }
     }
-    let mut sub = [[0.0f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS];
-    let mut rhs = [0.0f64; MAX_JOINT_COLUMNS];
+    let mut sub = [[0.0f64; S]; S];
+    let mut rhs = [0.0f64; S];
     for r in 0..m {
         rhs[r] = y[index[r]];
         for c in 0..=r {
@@ -669,9 +672,9 @@ fn solve_free(
 
 /// Solves `A x = y` for symmetric positive definite `A` (lower triangle filled); `x`
 /// overwrites `y`. Returns `false` if `A` is not positive definite.
-fn cholesky_solve(
-    a: &mut [[f64; MAX_JOINT_COLUMNS]; MAX_JOINT_COLUMNS],
-    y: &mut [f64; MAX_JOINT_COLUMNS],
+fn cholesky_solve<const S: usize>(
+    a: &mut [[f64; S]; S],
+    y: &mut [f64; S],
     n: usize,
 ) -> bool {
     for j in 0..n {
