@@ -334,8 +334,15 @@ impl<'t> Decoder<'t> {
     fn load(&self, row: &Row<'_>, x: usize, group: Group, scratch: &mut [f32]) -> bool {
         let start = self.plan.fringe_start(group);
         let w = row.width;
-        let samples =
-            (0..self.plan.band.count as usize).map(move |m| row.frames[(start + m) * w + x]);
+        // Frame `start + m` at pixel `x`, every `w` samples (the row's length is checked).
+        let samples = row
+            .frames
+            .get(start * w + x..)
+            .unwrap_or(&[])
+            .iter()
+            .step_by(w)
+            .take(self.plan.band.count as usize)
+            .copied();
         let stats = spectrum::compute(
             &self.plan,
             samples,

@@ -73,9 +73,8 @@ const MODEL_TERMS: usize = 2 * MAX_COLUMNS + 1;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Model {
     len: usize,
-    /// Table entry of bin 0 of each term: `r·N` and the start index `(−⌊t/q⌋) mod N`.
-    base: [usize; MODEL_TERMS],
-    start: [usize; MODEL_TERMS],
+    /// Table entry of bin 0 of each term: `r·N` plus the start index `(−⌊t/q⌋) mod N`.
+    first: [u32; MODEL_TERMS],
     coefficient: [Complex; MODEL_TERMS],
 }
 
@@ -282,7 +281,9 @@ impl<'t> Kernel<'t> {
         let mut m = Model::default();
         let mut mean = 0.0f32;
         let push = |m: &mut Model, t: i64, c: Complex| {
-            (m.base[m.len], m.start[m.len]) = self.locate(t);
+            let (base, start) = self.locate(t);
+            // Table entries fit in u32: tables are far smaller than 2^32 floats.
+            m.first[m.len] = (base + start) as u32;
             m.coefficient[m.len] = c;
             m.len += 1;
         };
@@ -313,7 +314,7 @@ impl<'t> Kernel<'t> {
         let mut sum = Complex::default();
         for i in 0..model.len {
             let c = model.coefficient[i];
-            let g = self.entry(model.base[i] + model.start[i] + bin);
+            let g = self.entry(model.first[i] as usize + bin);
             sum.re += c.re * g.re - c.im * g.im;
             sum.im += c.re * g.im + c.im * g.re;
         }
@@ -328,7 +329,7 @@ impl<'t> Kernel<'t> {
         for i in 0..model.len {
             let c = model.coefficient[i];
             let c = Complex::new(sign * c.re, sign * c.im);
-            let first = model.base[i] + model.start[i];
+            let first = model.first[i] as usize;
             let run = &self.table[2 * first..2 * (first + bins)];
             for (y, g) in data.chunks_exact_mut(2).zip(run.chunks_exact(2)) {
                 y[0] += c.re * g[0] - c.im * g[1];

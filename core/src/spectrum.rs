@@ -92,25 +92,27 @@ pub(crate) fn compute<I>(
     buffer: &mut [f32],
 ) -> SampleStats
 where
-    I: Iterator<Item = u16> + Clone,
+    I: Iterator<Item = u16>,
 {
     let n = plan.transform_size as usize;
     let m = plan.band.count as usize;
     let mut sum: u64 = 0;
     let mut saturated = false;
-    for s in samples.clone() {
+    let (head, tail) = buffer[..n + 2].split_at_mut(m);
+    // One pass over the samples (exact in f32), then the mean removal and window in place.
+    for (z, s) in head.iter_mut().zip(samples) {
         sum += s as u64;
         saturated |= s >= saturation;
+        *z = s as f32;
     }
     let mean = (sum as f64 / m as f64) as f32;
-    let (head, tail) = buffer[..n + 2].split_at_mut(m);
     if window.is_empty() {
-        for (z, s) in head.iter_mut().zip(samples) {
-            *z = s as f32 - mean;
+        for z in head.iter_mut() {
+            *z -= mean;
         }
     } else {
-        for ((z, s), h) in head.iter_mut().zip(samples).zip(window) {
-            *z = (s as f32 - mean) * h;
+        for (z, h) in head.iter_mut().zip(window) {
+            *z = (*z - mean) * h;
         }
     }
     tail.fill(0.0);
