@@ -672,11 +672,7 @@ fn solve_free<const S: usize>(
 
 /// Solves `A x = y` for symmetric positive definite `A` (lower triangle filled); `x`
 /// overwrites `y`. Returns `false` if `A` is not positive definite.
-fn cholesky_solve<const S: usize>(
-    a: &mut [[f64; S]; S],
-    y: &mut [f64; S],
-    n: usize,
-) -> bool {
+fn cholesky_solve<const S: usize>(a: &mut [[f64; S]; S], y: &mut [f64; S], n: usize) -> bool {
     for j in 0..n {
         let mut d = a[j][j];
         for k in 0..j {
