@@ -41,6 +41,10 @@ pub struct Args {
     /// the README, "Projector response files") so that the emitted light follows the cosine.
     #[arg(long, value_name = "FILE")]
     gamma: Option<PathBuf>,
+    /// Pre-correct with the response stored in this calibration file (its
+    /// [projector_response] section, from `fsm calibrate response --calibration`).
+    #[arg(long, value_name = "FILE", conflicts_with = "gamma")]
+    calibration: Option<PathBuf>,
     /// Replace the output folder if it exists and is not empty.
     #[arg(long)]
     force: bool,
@@ -48,11 +52,12 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let plan = super::load_plan(&args.plan)?;
-    let response = args
-        .gamma
-        .as_deref()
-        .map(ProjectorResponse::read)
-        .transpose()?;
+    let response_file = args.gamma.as_deref().or(args.calibration.as_deref());
+    let response = match (&args.gamma, &args.calibration) {
+        (Some(path), _) => Some(ProjectorResponse::read(path)?),
+        (None, Some(path)) => Some(super::calibrate::response::response_from_calibration(path)?),
+        (None, None) => None,
+    };
     let options = PatternOptions {
         width: args.width,
         height: args.height,
@@ -67,7 +72,7 @@ pub fn run(args: Args) -> Result<()> {
     let manifest = patterns::write_pattern_set(
         &plan,
         &options,
-        args.gamma.as_deref(),
+        response_file,
         &args.out,
         args.force,
         &Progress::stderr(),

@@ -1,14 +1,284 @@
 //! `fsm calibrate response`: the projector's intensity response from uniform grey captures.
 
-use fsm_host::{Error, Result};
+use std::path::{Path, PathBuf};
 
-/// Arguments of `fsm calibrate response`.
+use fsm_geometry::file::{CalibrationFile, ProjectorResponseSection};
+use fsm_host::image_files::ImageFormat;
+use fsm_host::projector_response::{self, GreyLevelManifest, ProjectorResponse, ResponseEstimate};
+use fsm_host::{outputs, Error, Result};
+use serde::Serialize;
+
+use crate::commands::BitDepth;
+
+/// Largest RMS fit residual (fraction of full light) at which `--model auto` writes the
+/// power law rather than the measured table.
+pub const AUTO_GAMMA_MAX_RMS: f64 = 0.005;
+
+/// How to measure, shown by `fsm calibrate response --help`.
+const LONG_HELP: &str = "\
+A projector whose light is not proportional to its code (gamma) distorts the fringes; their
+harmonics decode as ghost columns. Two steps:
+
+1. Write the grey-level images (code 0 to full, ascending) and levels.json:
+     fsm calibrate response --write-patterns levels/ --levels 17 --width 1024 --height 768
+   Project each in turn onto a flat, matte, light surface filling the camera's view and
+   capture it with a fixed exposure (no auto-gain), bright but not saturated at full code.
+   Number the captures like the images (0000.png, 0001.png, ...).
+2. Estimate the response and write it:
+     fsm calibrate response --images captures/ --manifest levels/levels.json \\
+         --bit-depth 12 --out response.toml --calibration calibration.toml
+   Per pixel the dark capture (code 0) is subtracted and the result divided by the full
+   code's; each level's light is the interquartile mean over the pixels (pixels saturated or
+   dim in the dark or full capture are left out and counted). Prints the best-fit gamma, its
+   RMS residual and every level; writes a response file for `fsm patterns --gamma`, and with
+   --calibration stores the response in the calibration file for
+   `fsm patterns --calibration`.";
+
+/// Arguments of `fsm calibrate response` (see [`LONG_HELP`]).
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(after_long_help = LONG_HELP)]
+#[command(group(clap::ArgGroup::new("mode").required(true).args(["write_patterns", "images"])))]
+pub struct Args {
+    /// Write the grey-level projector images and levels.json into this folder (created; must
+    /// not exist or be empty, unless --force).
+    #[arg(long, value_name = "DIR", requires_all = ["width", "height"])]
+    write_patterns: Option<PathBuf>,
+    /// Number of grey levels, evenly spaced from code 0 to full (at least 3).
+    #[arg(long, value_name = "N", default_value_t = 17)]
+    levels: usize,
+    /// Projector width in pixels (--write-patterns).
+    #[arg(long, value_name = "COLUMNS")]
+    width: Option<u32>,
+    /// Projector height in pixels (--write-patterns).
+    #[arg(long, value_name = "ROWS")]
+    height: Option<u32>,
+    /// 16-bit projector images (default 8-bit). With --images and without --manifest: the
+    /// levels were 16-bit codes.
+    #[arg(long)]
+    sixteen_bit: bool,
+    /// Write TIFF instead of PNG (--write-patterns).
+    #[arg(long)]
+    tiff: bool,
+    /// Replace the --write-patterns folder if it exists and is not empty.
+    #[arg(long)]
+    force: bool,
+    /// Folder of the captures, numbered like the grey-level images (PNG or TIFF, 8- or 16-bit
+    /// grey).
+    #[arg(long, value_name = "DIR")]
+    images: Option<PathBuf>,
+    /// The levels.json written with the grey-level images: the code of every capture.
+    /// Default: the codes of --levels (and --sixteen-bit), as --write-patterns makes them.
+    #[arg(long, value_name = "FILE")]
+    manifest: Option<PathBuf>,
+    #[command(flatten)]
+    bit_depth: BitDepth,
+    /// Response file to write (for `fsm patterns --gamma`).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Which response to write: the power law, the measured table, or (auto) the power law if
+    /// its RMS residual is at most 0.5% of full light, the table otherwise.
+    #[arg(long, value_enum, default_value_t = Model::Auto)]
+    model: Model,
+    /// Also store the response in this calibration file (its [projector_response] section,
+    /// replacing any; the file is rewritten whole).
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// Write the report as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+}
+
+/// The response written.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Model {
+    /// Power law if it fits within 0.5% of full light, table otherwise.
+    Auto,
+    /// `light = code^gamma`, the best fit.
+    Gamma,
+    /// The measured points, interpolated linearly.
+    Table,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    images: String,
+    bit_depth: u8,
+    /// "gamma" or "table": what was written.
+    model: &'static str,
+    response_file: Option<String>,
+    calibration_file: Option<String>,
+    #[serde(flatten)]
+    estimate: &'a ResponseEstimate,
+}
 
 /// Runs `fsm calibrate response`.
-pub fn run(_args: Args) -> Result<()> {
-    Err(Error::Usage(
-        "fsm calibrate response is not built yet".into(),
-    ))
+pub fn run(args: Args) -> Result<()> {
+    if let Some(out) = &args.write_patterns {
+        return write_patterns(&args, out);
+    }
+    let images = args.images.as_deref().expect("clap requires a mode");
+    let codes = match &args.manifest {
+        Some(path) => GreyLevelManifest::read(path)?.fractions(),
+        None => {
+            let max = if args.sixteen_bit {
+                u16::MAX
+            } else {
+                u8::MAX as u16
+            };
+            projector_response::grey_level_codes(args.levels, max)
+                .map_err(Error::Usage)?
+                .iter()
+                .map(|&c| c as f64 / max as f64)
+                .collect()
+        }
+    };
+    let estimate =
+        projector_response::estimate_from_folder(images, &codes, args.bit_depth.bit_depth)?;
+    let use_gamma = match args.model {
+        Model::Gamma => true,
+        Model::Table => false,
+        Model::Auto => estimate.fit_rms <= AUTO_GAMMA_MAX_RMS,
+    };
+    let response = if use_gamma {
+        estimate.gamma_response()
+    } else {
+        estimate.table_response()
+    };
+    let bits = (estimate.saturation_code as u32 + 1).trailing_zeros() as u8;
+    print_report(images, bits, &estimate);
+    let what = match &response {
+        ProjectorResponse::Gamma(g) => format!("gamma {g:.4}"),
+        ProjectorResponse::Table(p) => format!("a table of {} levels", p.len()),
+    };
+    if let Some(out) = &args.out {
+        let comment = format!(
+            "Projector response measured by fsm calibrate response from {} ({} levels):\nbest-fit gamma {:.4}, RMS residual {:.5} of full light (largest {:.5} at level {}).",
+            images.display(),
+            codes.len(),
+            estimate.gamma,
+            estimate.fit_rms,
+            estimate.fit_max,
+            estimate.fit_max_level
+        );
+        response.write(out, &comment)?;
+        println!("wrote {} ({what})", out.display());
+    }
+    if let Some(path) = &args.calibration {
+        store_in_calibration(path, &response)?;
+        println!("stored {what} in {}", path.display());
+    }
+    if let Some(path) = &args.json {
+        let report = Report {
+            images: images.display().to_string(),
+            bit_depth: bits,
+            model: if use_gamma { "gamma" } else { "table" },
+            response_file: args.out.as_ref().map(|p| p.display().to_string()),
+            calibration_file: args.calibration.as_ref().map(|p| p.display().to_string()),
+            estimate: &estimate,
+        };
+        let json = serde_json::to_string_pretty(&report).expect("report serialises");
+        outputs::write_file(path, json.as_bytes())?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn write_patterns(args: &Args, out: &Path) -> Result<()> {
+    let (width, height) = (
+        args.width.expect("clap requires --width"),
+        args.height.expect("clap requires --height"),
+    );
+    let format = if args.tiff {
+        ImageFormat::Tiff
+    } else {
+        ImageFormat::Png
+    };
+    let manifest = projector_response::write_grey_level_set(
+        out,
+        args.levels,
+        width,
+        height,
+        args.sixteen_bit,
+        format,
+        args.force,
+    )?;
+    eprintln!(
+        "wrote {} grey-level images of {width}x{height} ({}-bit, codes {}) and {} to {}",
+        manifest.levels.len(),
+        manifest.bit_depth,
+        manifest
+            .levels
+            .iter()
+            .map(|l| l.code.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+        projector_response::GREY_LEVELS_MANIFEST,
+        out.display()
+    );
+    Ok(())
+}
+
+fn print_report(images: &Path, bits: u8, e: &ResponseEstimate) {
+    println!(
+        "projector response from {} ({} levels, {bits}-bit sensor): {} of {} pixels used ({} saturated in the dark or full-code capture, {} too dim; median contrast {:.0} codes)",
+        images.display(),
+        e.levels.len(),
+        e.pixels_used,
+        e.pixels,
+        e.pixels_saturated,
+        e.pixels_dim,
+        e.median_contrast_dn
+    );
+    println!(
+        "best-fit gamma {:.4}, RMS residual {:.5} of full light (largest {:.5} at level {})",
+        e.gamma, e.fit_rms, e.fit_max, e.fit_max_level
+    );
+    println!("level    code    light   code^gamma   spread   pixels  saturated");
+    for l in &e.levels {
+        println!(
+            "{:>5}  {:.4}  {:.5}  {:>10.5}  {:.5}  {:>7}  {:>9}",
+            l.index, l.code, l.light, l.fitted, l.spread, l.pixels, l.saturated
+        );
+    }
+}
+
+fn section_of(response: &ProjectorResponse) -> ProjectorResponseSection {
+    match response {
+        ProjectorResponse::Gamma(g) => ProjectorResponseSection::Gamma(*g),
+        ProjectorResponse::Table(points) => ProjectorResponseSection::Table {
+            input: points.iter().map(|p| p.0).collect(),
+            output: points.iter().map(|p| p.1).collect(),
+        },
+    }
+}
+
+/// Replaces the `[projector_response]` section of the calibration file `path` (rewritten whole
+/// or not at all).
+fn store_in_calibration(path: &Path, response: &ProjectorResponse) -> Result<()> {
+    let mut file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
+    file.projector_response = Some(section_of(response));
+    file.write(path).map_err(|e| Error::Usage(e.to_string()))
+}
+
+/// The projector response stored in the calibration file `path` (`fsm patterns
+/// --calibration`); an error names the file if it has none.
+pub fn response_from_calibration(path: &Path) -> Result<ProjectorResponse> {
+    let file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
+    let invalid = |message: String| Error::ProjectorResponse {
+        path: path.to_path_buf(),
+        message,
+    };
+    match file.projector_response {
+        None => Err(invalid(format!(
+            "has no [projector_response] section: measure it with `fsm calibrate response --images DIR --calibration {}`",
+            path.display()
+        ))),
+        Some(ProjectorResponseSection::Gamma(g)) => {
+            ProjectorResponse::from_gamma(g).map_err(|e| invalid(format!("projector_response: {e}")))
+        }
+        Some(ProjectorResponseSection::Table { input, output }) => {
+            ProjectorResponse::from_table(&input, &output)
+                .map_err(|e| invalid(format!("projector_response: {e}")))
+        }
+    }
 }
