@@ -9,6 +9,7 @@
 //! | the calibrated pair | [`calibration`] |
 //! | candidate `(pixel, column)` → 3D point; a pixel's reachable columns | [`triangulation`] |
 //! | the calibration file (TOML, versioned, checksummed) | [`file`] |
+//! | OpenCV FileStorage calibrations of SLStudio, scan3d-capture, procam-calibration | [`opencv`] |
 //!
 //! Conventions: pixel `(0, 0)` has its centre at `(0, 0)`; projector column `j` has its centre
 //! at `c = j` (SPEC §1); every length is in millimetres; the camera frame is the world frame.
@@ -40,6 +41,7 @@ pub mod calibration;
 pub mod distortion;
 pub mod error;
 pub mod file;
+pub mod opencv;
 pub mod pinhole;
 pub mod pose;
 pub mod triangulation;

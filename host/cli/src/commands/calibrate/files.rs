@@ -1,21 +1,221 @@
 //! `fsm calibrate import|export`: OpenCV FileStorage calibrations of other tools.
 
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use fsm_geometry::opencv::{self, ImportOptions, LengthUnit, Syntax, Tool};
+use fsm_geometry::Calibration;
 use fsm_host::{Error, Result};
 
-/// Arguments of `fsm calibrate import`.
-#[derive(clap::Args, Debug)]
-pub struct ImportArgs {}
+/// The tools whose files are read and written.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Format {
+    /// SLStudio: Kc kc Kp kp Rp Tp (XML; X_p = Rp·X_c + Tp, mm).
+    Slstudio,
+    /// scan3d-capture (Moreno & Taubin): cam_K cam_kc proj_K proj_kc R T (YAML; X_p = R·X_c + T,
+    /// mm).
+    #[value(name = "scan3d-capture")]
+    Scan3dCapture,
+    /// procam-calibration (kamino410): cam_int cam_dist proj_int proj_dist roration translation
+    /// (XML; X_p = roration·X_c + translation, in the unit of its chessboard squares).
+    Procam,
+}
 
-/// Arguments of `fsm calibrate export`.
+impl Format {
+    fn tool(self) -> Tool {
+        match self {
+            Format::Slstudio => Tool::SlStudio,
+            Format::Scan3dCapture => Tool::Scan3dCapture,
+            Format::Procam => Tool::Procam,
+        }
+    }
+}
+
+/// The unit of the other tool's translation.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Unit {
+    /// Millimetres.
+    Mm,
+    /// Centimetres.
+    Cm,
+    /// Metres.
+    M,
+}
+
+impl Unit {
+    fn length(self) -> LengthUnit {
+        match self {
+            Unit::Mm => LengthUnit::Mm,
+            Unit::Cm => LengthUnit::Cm,
+            Unit::M => LengthUnit::M,
+        }
+    }
+}
+
+/// `WxH`, both at least 1.
+fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 1280x1024"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&v| v >= 1)
+            .ok_or_else(|| format!("`{s}`: `{v}` is not a size of 1 or more pixels"))
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+/// Read another tool's OpenCV FileStorage calibration (YAML or XML, recognised from the text)
+/// and write our calibration file.
+///
+/// All three tools calibrate with OpenCV's stereoCalibrate, camera first: their R, T map camera
+/// coordinates to projector coordinates (X_p = R·X_c + T), which is our pose as it is. T is in
+/// the unit the tool's user gave the checkerboard squares in (--unit, default mm). The files
+/// hold no measurement volume and not always the image sizes: give them as options.
+///
+/// Examples:
+///   fsm calibrate import --format slstudio --in calibration.xml --near-mm 350 --far-mm 700 --out cal.toml
+///   fsm calibrate import --format scan3d-capture --in calibration.yml --camera-size 1280x1024 \
+///       --projector-size 768x1024 --near-mm 350 --far-mm 700 --out cal.toml
+///   fsm calibrate import --format procam --in calibration_result.xml --projector-size 1280x800 \
+///       --near-mm 300 --far-mm 900 --unit mm --out cal.toml
 #[derive(clap::Args, Debug)]
-pub struct ExportArgs {}
+#[command(verbatim_doc_comment)]
+pub struct ImportArgs {
+    /// Which tool wrote the file (its key set).
+    #[arg(long, value_enum)]
+    format: Format,
+    /// The tool's calibration file.
+    #[arg(long = "in", value_name = "FILE")]
+    input: PathBuf,
+    /// Our calibration file to write (TOML).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+    /// Camera image size, pixels (required unless the file has it: SLStudio's
+    /// frameWidth/frameHeight, procam's img_shape).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    camera_size: Option<(u32, u32)>,
+    /// Projector size, columns x rows (required unless the file has it: SLStudio's
+    /// screenResX/screenResY). The columns are the plan's projector columns.
+    #[arg(long, value_name = "COLSxROWS", value_parser = parse_size)]
+    projector_size: Option<(u32, u32)>,
+    /// Nearest depth of the measurement volume, mm along the camera's z axis.
+    #[arg(long, value_name = "MM")]
+    near_mm: Option<f64>,
+    /// Farthest depth of the measurement volume, mm.
+    #[arg(long, value_name = "MM")]
+    far_mm: Option<f64>,
+    /// Unit of the file's translation.
+    #[arg(long, value_enum, default_value = "mm")]
+    unit: Unit,
+}
+
+/// Write our calibration file as another tool's OpenCV FileStorage file (.yml/.yaml for
+/// YAML, .xml for XML; SLStudio reads only .xml).
+///
+/// The file gets the tool's six keys (R, T camera to projector, as the tool has them) and what
+/// the tool writes besides: SLStudio's frameWidth/frameHeight/screenResX/screenResY,
+/// scan3d-capture's E and F, procam's img_shape. The sizes and the measurement volume that the
+/// format cannot carry are in a comment at the top, with the import command that restores them.
+///
+/// Examples:
+///   fsm calibrate export --calibration cal.toml --format slstudio --out calibration.xml
+///   fsm calibrate export --calibration cal.toml --format scan3d-capture --out calibration.yml
+#[derive(clap::Args, Debug)]
+#[command(verbatim_doc_comment)]
+pub struct ExportArgs {
+    /// Our calibration file.
+    #[arg(long, value_name = "FILE")]
+    calibration: PathBuf,
+    /// Which tool's key set to write.
+    #[arg(long, value_enum)]
+    format: Format,
+    /// The file to write (.yml, .yaml or .xml).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+    /// Unit of the written translation.
+    #[arg(long, value_enum, default_value = "mm")]
+    unit: Unit,
+}
+
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
 
 /// Runs `fsm calibrate import`.
-pub fn import(_args: ImportArgs) -> Result<()> {
-    Err(Error::Usage("fsm calibrate import is not built yet".into()))
+pub fn import(args: ImportArgs) -> Result<()> {
+    if same_file(&args.input, &args.out) {
+        return Err(Error::Usage(format!(
+            "--out {} is the input file: write our calibration to another file",
+            args.out.display()
+        )));
+    }
+    let options = ImportOptions {
+        camera_size: args.camera_size,
+        projector_size: args.projector_size,
+        near_mm: args.near_mm,
+        far_mm: args.far_mm,
+        unit: args.unit.length(),
+    };
+    let tool = args.format.tool();
+    let imported =
+        opencv::read(&args.input, tool, &options).map_err(|e| Error::Usage(e.to_string()))?;
+    imported
+        .calibration
+        .write(&args.out)
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    for note in &imported.notes {
+        eprintln!("{note}");
+    }
+    let c = &imported.calibration;
+    eprintln!(
+        "wrote {}: {} calibration from {}; camera {}x{}, projector {} columns x {} rows, baseline {:.3} mm, checksum {:08x}",
+        args.out.display(),
+        tool,
+        args.input.display(),
+        c.camera.width_px(),
+        c.camera.height_px(),
+        c.projector.width_px(),
+        c.projector.height_px(),
+        c.pose.baseline_mm(),
+        c.checksum()
+    );
+    Ok(())
 }
 
 /// Runs `fsm calibrate export`.
-pub fn export(_args: ExportArgs) -> Result<()> {
-    Err(Error::Usage("fsm calibrate export is not built yet".into()))
+pub fn export(args: ExportArgs) -> Result<()> {
+    if Syntax::of_path(&args.out).is_none() {
+        return Err(Error::Usage(format!(
+            "--out {}: the name must end in .yml, .yaml or .xml (OpenCV picks the syntax by it)",
+            args.out.display()
+        )));
+    }
+    if same_file(&args.calibration, &args.out) {
+        return Err(Error::Usage(format!(
+            "--out {} is the calibration being exported: write to another file",
+            args.out.display()
+        )));
+    }
+    let calibration =
+        Calibration::read(&args.calibration).map_err(|e| Error::Usage(e.to_string()))?;
+    let tool = args.format.tool();
+    opencv::write(&calibration, tool, &args.out, args.unit.length())
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    if tool == Tool::SlStudio && Syntax::of_path(&args.out) == Some(Syntax::Yaml) {
+        eprintln!("note: SLStudio loads only .xml calibration files");
+    }
+    eprintln!(
+        "wrote {}: {} calibration (translation in {}) from {}",
+        args.out.display(),
+        tool,
+        args.unit.length().name(),
+        args.calibration.display()
+    );
+    Ok(())
 }
