@@ -4,8 +4,14 @@
 //! observed through its column coordinate only (Moreno–Taubin local homographies).
 
 pub mod board;
+pub mod calibrate;
 pub mod corners;
 pub mod homography;
 pub mod projector;
 pub mod refine;
 pub mod zhang;
+
+pub use calibrate::{
+    calibrate, calibrate_from_columns, CalibrateError, CalibrationReport, CalibrationSettings,
+    ColumnMap, PoseObservation,
+};
