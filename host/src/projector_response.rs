@@ -297,7 +297,7 @@ fn check_fractions(fractions: &[f64]) -> Result<(), String> {
         return Err("the grey levels must start at code 0 and end at the full code".into());
     }
     for (i, w) in fractions.windows(2).enumerate() {
-        if !(w[1] > w[0]) {
+        if !w[0].is_finite() || !w[1].is_finite() || w[1] <= w[0] {
             return Err(format!(
                 "level {}: code {} is not above level {}'s {}",
                 i + 1,
@@ -686,7 +686,7 @@ impl ResponseEstimator {
         levels.extend(between);
         levels.push(end(last, 1.0));
         for i in 1..levels.len() {
-            if !(levels[i].light > levels[i - 1].light) || !levels[i].light.is_finite() {
+            if !levels[i].light.is_finite() || levels[i].light <= levels[i - 1].light {
                 return Err(level_error(
                     i,
                     format!(
@@ -1003,7 +1003,7 @@ mod tests {
             assert!((e.gamma - gamma).abs() < 0.01, "{gamma}: {}", e.gamma);
             assert!(e.fit_rms < 2e-3, "{gamma}: rms {}", e.fit_rms);
             // Every 10th pixel clips at full code: left out, counted.
-            assert_eq!(e.pixels_saturated, (64 * 48 + 9) / 10);
+            assert_eq!(e.pixels_saturated, (64usize * 48).div_ceil(10));
             assert_eq!(e.pixels_used + e.pixels_saturated + e.pixels_dim, 64 * 48);
             assert_eq!(e.levels.len(), 17);
             let table = e.table_response();
