@@ -66,17 +66,6 @@ pub(crate) fn find_peaks(
         if residual.magnitude(peak_bin) <= floor {
             break;
         }
-        // A strongest bin that does not stand clear of the noise of the residual as it stands
-        // cannot make a peak above `noise_factor ×` the noise it would leave: no fit (the shadow
-        // case costs one spectrum and this test).
-        let prescreen = PRESCREEN * settings.noise_factor;
-        let clear = match noise {
-            Some(n) => residual.magnitude(peak_bin) > prescreen * n,
-            None => stands_above_median(residual, peak_bin, prescreen),
-        };
-        if !clear {
-            break;
-        }
         let centre = round(peak_bin as f32 * domain.bin_width) as i32;
         let Some(fit) = fit_centred(kernel, table, residual, &domain, centre) else {
             break;
@@ -324,40 +313,6 @@ fn scan(residual: &Spectrum<'_>, _scratch: &mut [f32]) -> (usize, f32) {
     }
     let median = f32::from_bits(select(&mut keys[..sampled], sampled / 2) as u32);
     (best, sqrt(median / core::f32::consts::LN_2))
-}
-
-/// Share of the `noise_factor ×` noise test a strongest bin must reach, against the noise of
-/// the residual before its peak is removed, to be fitted at all. A light near the threshold
-/// raises that noise little (its sidelobes are below the noise), so a bin below this share of
-/// the threshold does not pass it once its peak is removed; pure noise rarely reaches it (the
-/// strongest of 65 noise bins is 2.1σ in the median, 2.7σ in one pixel in ten).
-const PRESCREEN: f32 = 0.7;
-
-/// Whether bin `peak` of `residual` exceeds `factor ×` the bin noise RMS [`scan`] would measure,
-/// `|X|² > factor² · median |X_k|² / ln 2`, without the median: more than half of the bins
-/// [`scan`] samples lie below `|X|² ln 2 / factor²`.
-fn stands_above_median(residual: &Spectrum<'_>, peak: usize, factor: f32) -> bool {
-    let bins = residual.len();
-    let stride = bins.div_ceil(MEDIAN_SAMPLES);
-    let threshold = residual.bin(peak).norm_sqr() * core::f32::consts::LN_2 / (factor * factor);
-    // The median is the element at `sampled / 2` in sorted order: below the threshold when
-    // more than `sampled / 2` elements are (usually decided half-way for a lit pixel).
-    let half = bins.div_ceil(stride).min(MEDIAN_SAMPLES) / 2;
-    let mut below = 0usize;
-    for x in residual
-        .as_slice()
-        .chunks_exact(2)
-        .step_by(stride)
-        .take(MEDIAN_SAMPLES)
-    {
-        if x[0] * x[0] + x[1] * x[1] < threshold {
-            below += 1;
-            if below > half {
-                return true;
-            }
-        }
-    }
-    false
 }
 
 /// Most bins the noise median is taken over.
