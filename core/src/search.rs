@@ -295,22 +295,43 @@ fn scan(residual: &Spectrum<'_>, _scratch: &mut [f32]) -> (usize, f32) {
     let mut best_power = -1.0f32;
     // The sampled powers as integers ordered like `f32::total_cmp`.
     let mut keys = [0i32; MEDIAN_SAMPLES];
-    let mut sampled = 0;
-    let mut next_sample = 0;
-    for (k, x) in residual.as_slice().chunks_exact(2).enumerate() {
-        let p = x[0] * x[0] + x[1] * x[1];
-        if p > best_power {
-            best_power = p;
-            best = k;
-        }
-        if k == next_sample {
-            if let Some(key) = keys.get_mut(sampled) {
-                *key = total_order_key(p);
-                sampled += 1;
+    let sampled = if stride == 1 {
+        // Every bin (at most MEDIAN_SAMPLES): one key per bin.
+        let mut sampled = 0;
+        for ((k, x), key) in residual
+            .as_slice()
+            .chunks_exact(2)
+            .enumerate()
+            .zip(keys.iter_mut())
+        {
+            let p = x[0] * x[0] + x[1] * x[1];
+            if p > best_power {
+                best_power = p;
+                best = k;
             }
-            next_sample += stride;
+            *key = total_order_key(p);
+            sampled += 1;
         }
-    }
+        sampled
+    } else {
+        let mut sampled = 0;
+        let mut next_sample = 0;
+        for (k, x) in residual.as_slice().chunks_exact(2).enumerate() {
+            let p = x[0] * x[0] + x[1] * x[1];
+            if p > best_power {
+                best_power = p;
+                best = k;
+            }
+            if k == next_sample {
+                if let Some(key) = keys.get_mut(sampled) {
+                    *key = total_order_key(p);
+                    sampled += 1;
+                }
+                next_sample += stride;
+            }
+        }
+        sampled
+    };
     let median = f32::from_bits(select(&mut keys[..sampled], sampled / 2) as u32);
     (best, sqrt(median / core::f32::consts::LN_2))
 }
