@@ -133,9 +133,25 @@ impl ProjectorResponse {
     }
 
     /// The text of a response file holding this response, with `comment` (one or more lines,
-    /// each written as a `#` comment) at the top. Parses back to the same response.
+    /// each written as a `#` comment; control characters are replaced) at the top. Parses back
+    /// to the same response.
     pub fn to_file_text(&self, comment: &str) -> String {
-        let mut text: String = comment.lines().map(|l| format!("# {l}\n")).collect();
+        // TOML comments may not hold control characters other than tab.
+        let clean = |l: &str| -> String {
+            l.chars()
+                .map(|c| {
+                    if c.is_control() && c != '\t' {
+                        '\u{fffd}'
+                    } else {
+                        c
+                    }
+                })
+                .collect()
+        };
+        let mut text: String = comment
+            .lines()
+            .map(|l| format!("# {}\n", clean(l)))
+            .collect();
         text.push_str(&format!("format_version = {RESPONSE_FILE_VERSION}\n"));
         let list = |values: &mut dyn Iterator<Item = f64>| {
             values

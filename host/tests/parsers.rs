@@ -2,7 +2,7 @@
 //! projector-response files never panic; damage is an error.
 
 use fsm_host::image_files;
-use fsm_host::projector_response::ProjectorResponse;
+use fsm_host::projector_response::{GreyLevelManifest, ProjectorResponse};
 use proptest::prelude::*;
 
 fn valid_png(width: u32, height: u32) -> Vec<u8> {
@@ -73,6 +73,41 @@ proptest! {
                 let light = i as f64 / 10.0;
                 prop_assert!((r.light_for(r.code_for(light)) - light).abs() < 1e-9);
             }
+        }
+    }
+
+    #[test]
+    fn written_response_files_parse_back_to_the_same_response(
+        gamma in 0.1f64..=10.0,
+        steps in proptest::collection::vec((1e-6f64..1.0, 1e-6f64..1.0), 1..20),
+        comment in "(.|\n|\r){0,80}",
+    ) {
+        // A strictly increasing table from the steps, normalised to 0..1 like a measured one.
+        let (sx, sy): (f64, f64) = steps.iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1));
+        let mut points = vec![(0.0, 0.0)];
+        let (mut x, mut y) = (0.0, 0.0);
+        for s in &steps {
+            x += s.0;
+            y += s.1;
+            points.push((x / sx, y / sy));
+        }
+        let last = points.len() - 1;
+        points[last] = (1.0, 1.0);
+        let input: Vec<f64> = points.iter().map(|p| p.0).collect();
+        let output: Vec<f64> = points.iter().map(|p| p.1).collect();
+        for r in [ProjectorResponse::Gamma(gamma), ProjectorResponse::from_table(&input, &output).unwrap()] {
+            let text = r.to_file_text(&comment);
+            prop_assert_eq!(ProjectorResponse::parse(&text), Ok(r), "{}", text);
+        }
+    }
+
+    #[test]
+    fn arbitrary_grey_level_manifests_never_panic(text in ".{0,200}") {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("levels.json");
+        std::fs::write(&path, &text).unwrap();
+        if let Err(e) = GreyLevelManifest::read(&path) {
+            prop_assert!(e.to_string().contains("levels.json"));
         }
     }
 }
