@@ -301,16 +301,20 @@ pub fn calibrate(
             pose.corners_px
                 .iter()
                 .map(|&c| {
-                    local_column(&map.columns, map.width, map.height, c, &settings.local)
-                        .ok()
-                        .map(|fit| fit.column)
+                    local_column(&map.columns, map.width, map.height, c, &settings.local).ok()
                 })
                 .collect::<Vec<_>>(),
         );
     }
     let labels: Vec<String> = poses.iter().map(|p| p.label.clone()).collect();
     let corners: Vec<Vec<Point2<f64>>> = poses.iter().map(|p| p.corners_px.clone()).collect();
-    calibrate_from_columns(board_mm, &labels, &corners, &columns, settings)
+    // The local maps are evaluated where the calibrated camera puts each corner (see
+    // `LocalColumn::at`).
+    let source = |pose: usize, corner: usize, predicted: Option<Point2<f64>>| {
+        let fit = columns[pose][corner].as_ref()?;
+        Some(predicted.map_or(fit.column, |p| fit.at(p)))
+    };
+    calibrate_inner(board_mm, &labels, &corners, &source, settings)
 }
 
 fn check_counts<'a>(
@@ -348,6 +352,34 @@ pub fn calibrate_from_columns(
     columns: &[Vec<Option<f64>>],
     settings: &CalibrationSettings,
 ) -> Result<(Calibration, CalibrationReport), CalibrateError> {
+    for (i, cols) in columns.iter().enumerate() {
+        if cols.len() != board_mm.len() {
+            return Err(CalibrateError::CornerCount {
+                pose: labels.get(i).cloned().unwrap_or_else(|| format!("{i}")),
+                given: cols.len(),
+                expected: board_mm.len(),
+            });
+        }
+    }
+    if columns.len() != corners_px.len() {
+        return Err(CalibrateError::TooFewPoses {
+            given: columns.len().min(corners_px.len()),
+        });
+    }
+    let source = |pose: usize, corner: usize, _: Option<Point2<f64>>| columns[pose][corner];
+    calibrate_inner(board_mm, labels, corners_px, &source, settings)
+}
+
+/// Column of corner `corner` of pose `pose`, given where the calibrated camera puts it.
+type ColumnSource<'a> = dyn Fn(usize, usize, Option<Point2<f64>>) -> Option<f64> + 'a;
+
+fn calibrate_inner(
+    board_mm: &[Point2<f64>],
+    labels: &[String],
+    corners_px: &[Vec<Point2<f64>>],
+    source: &ColumnSource<'_>,
+    settings: &CalibrationSettings,
+) -> Result<(Calibration, CalibrationReport), CalibrateError> {
     let fallback: Vec<String>;
     let labels = if labels.len() == corners_px.len() {
         labels
@@ -360,21 +392,6 @@ pub fn calibrate_from_columns(
         corners_px.len(),
         labels.iter().zip(corners_px).map(|(l, c)| (l, c.len())),
     )?;
-    for (label, cols) in labels.iter().zip(columns) {
-        if cols.len() != board_mm.len() {
-            return Err(CalibrateError::CornerCount {
-                pose: label.clone(),
-                given: cols.len(),
-                expected: board_mm.len(),
-            });
-        }
-    }
-    // A column that is not finite is no column.
-    let columns: Vec<Vec<Option<f64>>> = columns
-        .iter()
-        .map(|c| c.iter().map(|c| c.filter(|c| c.is_finite())).collect())
-        .collect();
-
     // 1. Camera.
     let zhang = initial_estimate(board_mm, corners_px).map_err(CalibrateError::Camera)?;
     let cam = refine_camera(
@@ -390,8 +407,23 @@ pub fn calibrate_from_columns(
         error,
     })?;
 
-    // 3. Projector from the corners' camera-frame positions.
+    // 2. Each corner's column, where the camera model puts the corner.
     let points = corner_points(board_mm, &cam.poses);
+    let columns: Vec<Vec<Option<f64>>> = points
+        .iter()
+        .enumerate()
+        .map(|(i, pts)| {
+            pts.iter()
+                .enumerate()
+                .map(|(j, x)| {
+                    let predicted = crate::refine::project(&cam.camera, &cam.distortion, &x.coords);
+                    source(i, j, predicted).filter(|c| c.is_finite())
+                })
+                .collect()
+        })
+        .collect();
+
+    // 3. Projector from the corners' camera-frame positions.
     let proj = calibrate_projector(&points, &columns, &settings.projector)
         .map_err(CalibrateError::Projector)?;
 
