@@ -52,6 +52,33 @@ impl Unit {
     }
 }
 
+const IMPORT_HELP: &str = "\
+The file is YAML or XML, recognised from its text. All three tools calibrate with OpenCV's
+stereoCalibrate, camera first: their R, T map camera coordinates to projector coordinates
+(X_p = R·X_c + T), which is our pose as it is. T is in the unit the tool's user gave the
+checkerboard squares in (--unit, default mm). The files hold no measurement volume and not
+always the image sizes: give them as options (an option wins over a size in the file, with a
+warning). See calibration/README.md.
+
+Examples:
+  fsm calibrate import --format slstudio --in calibration.xml --near-mm 350 --far-mm 700 \\
+      --out cal.toml
+  fsm calibrate import --format scan3d-capture --in calibration.yml --camera-size 1280x1024 \\
+      --projector-size 768x1024 --near-mm 350 --far-mm 700 --out cal.toml
+  fsm calibrate import --format procam --in calibration_result.xml --projector-size 1280x800 \\
+      --near-mm 300 --far-mm 900 --unit mm --out cal.toml";
+
+const EXPORT_HELP: &str = "\
+The syntax follows the name: .yml/.yaml for YAML, .xml for XML (SLStudio reads only .xml).
+The file gets the tool's six keys (R, T camera to projector, as the tool has them) and what
+the tool writes besides: SLStudio's frameWidth/frameHeight/screenResX/screenResY,
+scan3d-capture's E and F, procam's img_shape. The sizes and the measurement volume that the
+format cannot carry are in a comment at the top.
+
+Examples:
+  fsm calibrate export --calibration cal.toml --format slstudio --out calibration.xml
+  fsm calibrate export --calibration cal.toml --format scan3d-capture --out calibration.yml";
+
 /// `WxH`, both at least 1.
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     let (w, h) = s
@@ -67,22 +94,9 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     Ok((parse(w)?, parse(h)?))
 }
 
-/// Read another tool's OpenCV FileStorage calibration (YAML or XML, recognised from the text)
-/// and write our calibration file.
-///
-/// All three tools calibrate with OpenCV's stereoCalibrate, camera first: their R, T map camera
-/// coordinates to projector coordinates (X_p = R·X_c + T), which is our pose as it is. T is in
-/// the unit the tool's user gave the checkerboard squares in (--unit, default mm). The files
-/// hold no measurement volume and not always the image sizes: give them as options.
-///
-/// Examples:
-///   fsm calibrate import --format slstudio --in calibration.xml --near-mm 350 --far-mm 700 --out cal.toml
-///   fsm calibrate import --format scan3d-capture --in calibration.yml --camera-size 1280x1024 \
-///       --projector-size 768x1024 --near-mm 350 --far-mm 700 --out cal.toml
-///   fsm calibrate import --format procam --in calibration_result.xml --projector-size 1280x800 \
-///       --near-mm 300 --far-mm 900 --unit mm --out cal.toml
+/// Read another tool's OpenCV FileStorage calibration and write our calibration file.
 #[derive(clap::Args, Debug)]
-#[command(verbatim_doc_comment)]
+#[command(after_help = IMPORT_HELP)]
 pub struct ImportArgs {
     /// Which tool wrote the file (its key set).
     #[arg(long, value_enum)]
@@ -112,19 +126,9 @@ pub struct ImportArgs {
     unit: Unit,
 }
 
-/// Write our calibration file as another tool's OpenCV FileStorage file (.yml/.yaml for
-/// YAML, .xml for XML; SLStudio reads only .xml).
-///
-/// The file gets the tool's six keys (R, T camera to projector, as the tool has them) and what
-/// the tool writes besides: SLStudio's frameWidth/frameHeight/screenResX/screenResY,
-/// scan3d-capture's E and F, procam's img_shape. The sizes and the measurement volume that the
-/// format cannot carry are in a comment at the top, with the import command that restores them.
-///
-/// Examples:
-///   fsm calibrate export --calibration cal.toml --format slstudio --out calibration.xml
-///   fsm calibrate export --calibration cal.toml --format scan3d-capture --out calibration.yml
+/// Write our calibration file as another tool's OpenCV FileStorage file.
 #[derive(clap::Args, Debug)]
-#[command(verbatim_doc_comment)]
+#[command(after_help = EXPORT_HELP)]
 pub struct ExportArgs {
     /// Our calibration file.
     #[arg(long, value_name = "FILE")]
