@@ -1718,28 +1718,38 @@ pub fn to_text(calibration: &Calibration, tool: Tool, syntax: Syntax, unit: Leng
             keys.translation,
             unit.name()
         ),
-        format!(
-            "Not in this file: camera {}x{} px, projector {}x{} (columns x rows), depths {}..{} mm.",
-            c.camera.width_px(),
-            c.camera.height_px(),
-            c.projector.width_px(),
-            c.projector.height_px(),
-            c.volume.near_mm(),
-            c.volume.far_mm()
-        ),
     ];
+    // What the tool's file cannot carry, and the import options that restore it.
+    let camera = format!("{}x{}", c.camera.width_px(), c.camera.height_px());
+    let projector = format!("{}x{}", c.projector.width_px(), c.projector.height_px());
+    let mut missing = Vec::new();
+    let mut options = Vec::new();
+    if tool == Tool::Scan3dCapture {
+        missing.push(format!("camera {camera} px"));
+        options.push(format!("--camera-size {camera}"));
+    }
+    if tool != Tool::SlStudio {
+        missing.push(format!("projector {projector} (columns x rows)"));
+        options.push(format!("--projector-size {projector}"));
+    }
+    missing.push(format!(
+        "measurement volume {}..{} mm",
+        c.volume.near_mm(),
+        c.volume.far_mm()
+    ));
+    options.push(format!(
+        "--near-mm {} --far-mm {} --unit {}",
+        c.volume.near_mm(),
+        c.volume.far_mm(),
+        unit.name()
+    ));
+    comment.push(format!("Not in this file: {}.", missing.join(", ")));
     // (An XML comment may not contain `--`.)
     if syntax == Syntax::Yaml {
         comment.push(format!(
-            "Import: fsm calibrate import --format {} --camera-size {}x{} --projector-size {}x{} --near-mm {} --far-mm {} --unit {}",
+            "Import: fsm calibrate import --format {} {}",
             tool.name(),
-            c.camera.width_px(),
-            c.camera.height_px(),
-            c.projector.width_px(),
-            c.projector.height_px(),
-            c.volume.near_mm(),
-            c.volume.far_mm(),
-            unit.name()
+            options.join(" ")
         ));
     }
     let mut w = Writer::new(syntax, &comment);
