@@ -86,7 +86,6 @@ fn poses(board: &[Point2<f64>]) -> Vec<BoardPose> {
 }
 
 struct Data {
-    truth: Calibration,
     board: Vec<Point2<f64>>,
     poses: Vec<BoardPose>,
     corners: Vec<Vec<Point2<f64>>>,
@@ -126,7 +125,6 @@ fn synthesize(truth: &Calibration, sigma_px: f64, sigma_col: f64, seed: u64) -> 
         columns.push(cols);
     }
     Data {
-        truth: *truth,
         board,
         poses,
         corners,
