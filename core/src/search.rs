@@ -67,9 +67,18 @@ pub(crate) fn find_peaks(
             break;
         }
         let centre = round(peak_bin as f32 * domain.bin_width) as i32;
-        let Some(fit) = fit_centred(kernel, table, residual, &domain, centre) else {
+        let Some((narrow, centre)) = fit_recentred(kernel, table, residual, centre) else {
             break;
         };
+        if narrow.clipped(&domain) {
+            // Widening refines the shape of a light; first the narrow fit must show there is
+            // one (the noise test below), else noise, which clips often, costs a wide solve.
+            let n = noise_without(kernel, residual, &narrow);
+            if narrow.model(kernel, peak_bin).norm() <= settings.noise_factor * n {
+                break;
+            }
+        }
+        let fit = widened(kernel, residual, &domain, centre, narrow);
         let amplitude = fit.weights.amplitude();
         if amplitude <= settings.min_amplitude_dn
             || amplitude <= settings.relative_floor * strongest
@@ -147,8 +156,20 @@ fn fit_centred(
     table: &FitTable<'_>,
     residual: &Spectrum<'_>,
     domain: &FitDomain,
-    mut centre: i32,
+    centre: i32,
 ) -> Option<Fit> {
+    let (fit, centre) = fit_recentred(kernel, table, residual, centre)?;
+    Some(widened(kernel, residual, domain, centre, fit))
+}
+
+/// Fits at `centre`, then once or twice more at the rounded centroid if it moved away; returns
+/// the fit and the centre it was fitted at.
+fn fit_recentred(
+    kernel: &Kernel<'_>,
+    table: &FitTable<'_>,
+    residual: &Spectrum<'_>,
+    mut centre: i32,
+) -> Option<(Fit, i32)> {
     let mut fit = Fit::solve(kernel, table, residual, centre)?;
     for _ in 0..2 {
         let centroid = fit.weights.centroid()?;
@@ -158,16 +179,27 @@ fn fit_centred(
         centre = round(centroid) as i32;
         fit = Fit::solve(kernel, table, residual, centre)?;
     }
+    Some((fit, centre))
+}
+
+/// `fit` (centred on `centre`), widened if it leaves light at the edge of its window.
+fn widened(
+    kernel: &Kernel<'_>,
+    residual: &Spectrum<'_>,
+    domain: &FitDomain,
+    centre: i32,
+    fit: Fit,
+) -> Fit {
     if fit.clipped(domain) {
         // One light wider than the window, unless the wider fit shows a second light beside it
         // (that one the search finds on its own).
         if let Some(wide) = Fit::solve_wide(kernel, residual, domain, centre) {
             if wide.weights.is_unimodal() {
-                fit = wide;
+                return wide;
             }
         }
     }
-    Some(fit)
+    fit
 }
 
 /// Refits every peak once all are known: each first fit saw the others' sidelobes, which bias
@@ -334,6 +366,23 @@ fn scan(residual: &Spectrum<'_>, _scratch: &mut [f32]) -> (usize, f32) {
     };
     let median = f32::from_bits(select(&mut keys[..sampled], sampled / 2) as u32);
     (best, sqrt(median / core::f32::consts::LN_2))
+}
+
+/// The bin noise RMS [`scan`] would measure once `fit` is removed from `residual`, computed
+/// without changing `residual`.
+fn noise_without(kernel: &Kernel<'_>, residual: &Spectrum<'_>, fit: &Fit) -> f32 {
+    let bins = residual.len();
+    let stride = bins.div_ceil(MEDIAN_SAMPLES);
+    let mut keys = [0i32; MEDIAN_SAMPLES];
+    let mut sampled = 0;
+    for (key, k) in keys.iter_mut().zip((0..bins).step_by(stride)) {
+        let (r, m) = (residual.bin(k), fit.model(kernel, k));
+        let (re, im) = (r.re - m.re, r.im - m.im);
+        *key = total_order_key(re * re + im * im);
+        sampled += 1;
+    }
+    let median = f32::from_bits(select(&mut keys[..sampled], sampled / 2) as u32);
+    sqrt(median / core::f32::consts::LN_2)
 }
 
 /// Most bins the noise median is taken over.
