@@ -343,7 +343,7 @@ mod tests {
                 let in_light = light.shape.rectangle_contains(&p);
                 assert!(in_dark != in_light, "board point ({bx}, {by})");
                 counts[in_dark as usize] += 1;
-                let on_squares = bx >= -10.0 && bx < 50.0 && by >= -10.0 && by < 40.0;
+                let on_squares = (-10.0..50.0).contains(&bx) && (-10.0..40.0).contains(&by);
                 let expected_dark = on_squares
                     && (((bx / 10.0).floor() + (by / 10.0).floor()) as i64).rem_euclid(2) == 0;
                 assert_eq!(in_dark, expected_dark, "board point ({bx}, {by})");
