@@ -17,39 +17,43 @@ use fsm_host::outputs::write_file;
 use fsm_host::progress::Progress;
 use fsm_host::{Error, Result};
 
-/// Calibrate the camera and the projector from scans of a planar checkerboard.
-///
-/// Hold the board still at 3 or more poses (10-15 is better), tilted 10-45 degrees in
-/// different directions, filling much of the camera's view and lit by the projector, and
-/// scan each pose with the plan. Each --poses folder is one pose, either
-///
-///   a captured stack   the scan's images as `fsm scan` reads them (0000.png, 0001.png, …,
-///                      the plan's sequence: frame 0 dark, frame 1 white, then the fringes);
-///                      decoded here, the corners found in its white − dark frame; or
-///   decoded            column.tiff (as `fsm decode` writes it) plus white.png / white.tif /
-///                      white.tiff (the board under a full-on frame; a dark.png / dark.tif /
-///                      dark.tiff beside it is subtracted).
-///
-/// The camera: Zhang's closed form, then Levenberg-Marquardt on K, distortion (k1 k2 p1 p2;
-/// k3 with --camera-k3) and the poses. The projector: each corner's column from a local
-/// projective fit of the decoded columns around it, then the projector as an inverse camera
-/// seen through its columns; finally everything refined together. Columns alone do not fix
-/// the projector's fy, cy, rows or its offset along its vertical axis: fy = fx, cy and rows
-/// are taken from the options (triangulation uses columns only).
-///
-/// Writes the calibration file (--out) and a JSON report (--report): reprojection RMS of the
-/// camera (px) and the projector (columns) per pose, every parameter with its standard
-/// deviation, every corner's residuals. --residuals DIR adds one picture per pose: the white
-/// frame with each corner's camera residual as a red line (x 200) and its projector residual
-/// as a dot (blue: observed column left of the model, yellow: right; brighter = larger).
-/// Every file appears whole or not at all.
-///
-/// Examples:
-///   fsm calibrate target --board calibration/targets/checkerboard-9x6-20mm.toml \
-///       --plan plan.toml --poses pose1/ pose2/ pose3/ pose4/ \
-///       --out calibration.toml --report report.json --residuals residuals/
+/// The layout of the pose folders, the method and the outputs (shown after the options).
+const TARGET_HELP: &str = "\
+Calibrate the camera and the projector from scans of a planar checkerboard.
+
+Hold the board still at 3 or more poses (10-15 is better), tilted 10-45 degrees in
+different directions, filling much of the camera's view and lit by the projector, and
+scan each pose with the plan. Each --poses folder is one pose, either
+
+  a captured stack   the scan's images as `fsm scan` reads them (0000.png, 0001.png, …,
+                     the plan's sequence: frame 0 dark, frame 1 white, then the fringes);
+                     decoded here, the corners found in its white − dark frame; or
+  decoded            column.tiff (as `fsm decode` writes it) plus white.png / white.tif /
+                     white.tiff (the board under a full-on frame; a dark.png / dark.tif /
+                     dark.tiff beside it is subtracted).
+
+The camera: Zhang's closed form, then Levenberg-Marquardt on K, distortion (k1 k2 p1 p2;
+k3 with --camera-k3) and the poses. The projector: each corner's column from a local
+projective fit of the decoded columns around it, then the projector as an inverse camera
+seen through its columns; finally everything refined together. Columns alone do not fix
+the projector's fy, cy, rows or its offset along its vertical axis: fy = fx, cy and rows
+are taken from the options (triangulation uses columns only).
+
+Writes the calibration file (--out) and a JSON report (--report): reprojection RMS of the
+camera (px) and the projector (columns) per pose, every parameter with its standard
+deviation, every corner's residuals. --residuals DIR adds one picture per pose: the white
+frame with each corner's camera residual as a red line (x 200) and its projector residual
+as a dot (blue: observed column left of the model, yellow: right; brighter = larger).
+Every file appears whole or not at all.
+
+Examples:
+  fsm calibrate target --board calibration/targets/checkerboard-9x6-20mm.toml \\
+      --plan plan.toml --poses pose1/ pose2/ pose3/ pose4/ \\
+      --out calibration.toml --report report.json --residuals residuals/";
+
+/// Arguments of `fsm calibrate target`.
 #[derive(clap::Args, Debug)]
-#[command(verbatim_doc_comment)]
+#[command(after_help = TARGET_HELP)]
 pub struct Args {
     /// Target definition file (calibration/targets/*.toml).
     #[arg(long, value_name = "FILE")]
