@@ -579,3 +579,36 @@ fn degenerate_input_is_a_clear_error() {
     let err = calibrate_from_columns(&d.board, &labels(10), &nan, &d.columns, &s).unwrap_err();
     eprintln!("{err}");
 }
+
+/// `t.y` is observable only through the projector's distortion (module docs of
+/// `fsm_calibrate::projector`): freeing it must still converge, with a large standard
+/// deviation, and leave the plane as good.
+#[test]
+fn projector_vertical_offset_is_weakly_observable() {
+    let truth = bench();
+    let d = synthesize(&truth, 0.05, 0.02, 101);
+    let mut s = settings();
+    s.projector.refine_vertical_offset = true;
+    let (cal, report) = calibrate_from_columns(
+        &d.board,
+        &labels(d.corners.len()),
+        &d.corners,
+        &d.columns,
+        &s,
+    )
+    .unwrap();
+    let ty = report.projector.iter().find(|p| p.name == "ty_mm").unwrap();
+    let tx = report.projector.iter().find(|p| p.name == "tx_mm").unwrap();
+    let (_, dev) = plane_deviation(&truth, &cal);
+    eprintln!(
+        "t.y free: {:.3} ± {:.3} mm (t.x ± {:.3} mm), plane {:.4} mm aligned, projector RMS {:.4}",
+        ty.value,
+        ty.std_dev.unwrap_or(f64::NAN),
+        tx.std_dev.unwrap_or(f64::NAN),
+        dev,
+        report.projector_rms_columns
+    );
+    assert!(!ty.fixed);
+    assert!(ty.std_dev.unwrap() > 5.0 * tx.std_dev.unwrap());
+    assert!(dev <= 0.0002 * 500.0);
+}
