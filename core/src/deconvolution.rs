@@ -227,6 +227,11 @@ impl Fit {
         kernel.add_model(&self.model, spectrum, sign);
     }
 
+    /// `data[2k..2k+2] += model(k)` for the bins `data` holds (interleaved, from bin 0).
+    pub fn add_to(&self, kernel: &Kernel<'_>, data: &mut [f32]) {
+        kernel.add_model_to(&self.model, data, 1.0);
+    }
+
     /// The modelled value of bin `k`.
     #[inline]
     pub fn model(&self, kernel: &Kernel<'_>, k: usize) -> Complex {

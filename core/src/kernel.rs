@@ -324,8 +324,12 @@ impl<'t> Kernel<'t> {
     /// `spectrum_k += sign·model(k)` for every bin: per term, one contiguous complex AXPY over
     /// the table.
     pub fn add_model(&self, model: &Model, spectrum: &mut Spectrum<'_>, sign: f32) {
-        let bins = spectrum.len();
-        let data = spectrum.as_mut_slice();
+        self.add_model_to(model, spectrum.as_mut_slice(), sign);
+    }
+
+    /// `data[2k..2k+2] += sign·model(k)` for the bins `data` holds (interleaved, from bin 0).
+    pub(crate) fn add_model_to(&self, model: &Model, data: &mut [f32], sign: f32) {
+        let bins = data.len() / 2;
         for i in 0..model.len {
             let c = model.coefficient[i];
             let c = Complex::new(sign * c.re, sign * c.im);

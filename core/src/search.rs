@@ -375,11 +375,28 @@ fn noise_without(kernel: &Kernel<'_>, residual: &Spectrum<'_>, fit: &Fit) -> f32
     let stride = bins.div_ceil(MEDIAN_SAMPLES);
     let mut keys = [0i32; MEDIAN_SAMPLES];
     let mut sampled = 0;
-    for (key, k) in keys.iter_mut().zip((0..bins).step_by(stride)) {
-        let (r, m) = (residual.bin(k), fit.model(kernel, k));
-        let (re, im) = (r.re - m.re, r.im - m.im);
-        *key = total_order_key(re * re + im * im);
-        sampled += 1;
+    if bins <= MEDIAN_SAMPLES {
+        // Every bin is sampled: the model of all bins at once, term by term (the same sums as
+        // `Fit::model`).
+        let mut model = [0.0f32; 2 * MEDIAN_SAMPLES];
+        let model = &mut model[..2 * bins];
+        fit.add_to(kernel, model);
+        for ((key, r), m) in keys
+            .iter_mut()
+            .zip(residual.as_slice().chunks_exact(2))
+            .zip(model.chunks_exact(2))
+        {
+            let (re, im) = (r[0] - m[0], r[1] - m[1]);
+            *key = total_order_key(re * re + im * im);
+            sampled += 1;
+        }
+    } else {
+        for (key, k) in keys.iter_mut().zip((0..bins).step_by(stride)) {
+            let (r, m) = (residual.bin(k), fit.model(kernel, k));
+            let (re, im) = (r.re - m.re, r.im - m.im);
+            *key = total_order_key(re * re + im * im);
+            sampled += 1;
+        }
     }
     let median = f32::from_bits(select(&mut keys[..sampled], sampled / 2) as u32);
     sqrt(median / core::f32::consts::LN_2)
