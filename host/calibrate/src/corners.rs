@@ -760,12 +760,22 @@ fn refine_all(
             let v = step(col, row, 0, 1);
             // The window: 3/4 of the shorter step (no other corner's edges weigh in).
             let radius = (0.75 * u.norm().min(v.norm())).clamp(4.0, 24.0);
+            // Near the image border, a smaller window that stays inside (gradients exist from
+            // the second pixel to the last but one).
+            let room = (p.x - 2.0)
+                .min(p.y - 2.0)
+                .min(image.w as f64 - 3.0 - p.x)
+                .min(image.h as f64 - 3.0 - p.y);
+            let radius = radius.min(room);
             let fail = CornerError::Refinement {
                 column: col as u32,
                 row: row as u32,
                 x: p.x,
                 y: p.y,
             };
+            if radius < 3.0 {
+                return Err(fail);
+            }
             let shading = Shading::around(image, p, u, v);
             let q = refine(&grad, &smooth, p, radius, shading.as_ref()).ok_or(fail)?;
             out.push(q);

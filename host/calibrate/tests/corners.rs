@@ -4,7 +4,7 @@
 //! each corner is its projection through the bench camera model. Default run:
 //! `cargo test -p fsm-calibrate --test corners -- --nocapture` (prints the measured errors).
 //! Many more poses and a 640 × 480 camera:
-//! `cargo test --release -p fsm-calibrate --test corners -- --ignored --nocapture`.
+//! `cargo test -p fsm-calibrate --test corners -- --ignored --nocapture`.
 
 use std::path::PathBuf;
 
@@ -154,7 +154,7 @@ fn corners_match_the_true_projection_with_default_sensor_noise() {
 
 /// Many poses (yaw and pitch up to ±40°, 450–700 mm, any roll), both noise levels, the bench
 /// camera and a 640 × 480 one.
-/// `cargo test --release -p fsm-calibrate --test corners -- --ignored --nocapture`
+/// `cargo test -p fsm-calibrate --test corners -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn corners_over_many_poses_and_two_cameras() {
