@@ -163,6 +163,26 @@ impl<'t> Kernel<'t> {
     /// Table entry of bin 0 of a term at offset `t`: `(2rN, (−⌊t/q⌋) mod N)`.
     #[inline]
     fn locate(&self, t: i64) -> (usize, usize) {
+        // The same integers with fewer divisions (a Cortex-A9 divides in software, 64-bit
+        // divisions slowest): one entry per bin and N a power of two (the paper's EFSM) need
+        // only masks, and table offsets fit in 32 bits.
+        let n = self.transform_size;
+        if self.per_bin == 1 && n > 0 && n & (n - 1) == 0 {
+            return (0, ((-(t & (n - 1))) & (n - 1)) as usize);
+        }
+        if let (Ok(t), Ok(len), Ok(q), Ok(n)) = (
+            i32::try_from(t),
+            i32::try_from(self.len),
+            i32::try_from(self.per_bin),
+            i32::try_from(n),
+        ) {
+            let t = t.rem_euclid(len);
+            let (r, i) = (t % q, t / q);
+            return (
+                (2 * r as i64 * n as i64) as usize,
+                (-i).rem_euclid(n) as usize,
+            );
+        }
         let t = t.rem_euclid(self.len);
         let (r, i) = (t % self.per_bin, t / self.per_bin);
         (
