@@ -676,40 +676,43 @@ fn solve_free<const S: usize>(
 }
 
 /// Solves `A x = y` for symmetric positive definite `A` (lower triangle filled); `x`
-/// overwrites `y`. Returns `false` if `A` is not positive definite.
+/// overwrites `y`. Returns `false` if `A` is not positive definite. By `A = L D Lᵀ` (unit `L`):
+/// Cholesky without its square roots, which a Cortex-A9 computes in software.
 fn cholesky_solve<const S: usize>(a: &mut [[f64; S]; S], y: &mut [f64; S], n: usize) -> bool {
     for j in 0..n {
         let mut d = a[j][j];
         for k in 0..j {
-            d -= a[j][k] * a[j][k];
+            d -= a[j][k] * a[j][k] * a[k][k];
         }
         if d.is_nan() || d <= 0.0 {
             return false;
         }
-        let d = libm::sqrt(d);
         a[j][j] = d;
         for i in j + 1..n {
             let mut s = a[i][j];
             for k in 0..j {
-                s -= a[i][k] * a[j][k];
+                s -= a[i][k] * a[j][k] * a[k][k];
             }
             a[i][j] = s / d;
         }
     }
-    // L z = y, then Lᵀ x = z.
+    // L z = y, D w = z, then Lᵀ x = w.
     for i in 0..n {
         let mut s = y[i];
         for k in 0..i {
             s -= a[i][k] * y[k];
         }
-        y[i] = s / a[i][i];
+        y[i] = s;
+    }
+    for i in 0..n {
+        y[i] /= a[i][i];
     }
     for i in (0..n).rev() {
         let mut s = y[i];
         for k in i + 1..n {
             s -= a[k][i] * y[k];
         }
-        y[i] = s / a[i][i];
+        y[i] = s;
     }
     true
 }
