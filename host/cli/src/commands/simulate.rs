@@ -325,7 +325,8 @@ fn run_board(args: Args) -> Result<()> {
     let plan = plan_of(&args, Some(BOARD_PRESET))?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     // (label for messages, sub-folder or None for the output folder itself, placement)
-    let poses: Vec<(String, Option<String>, BoardPlacement)> = match (args.board_pose, args.board_poses) {
+    type Poses = Vec<(String, Option<String>, BoardPlacement)>;
+    let poses: Poses = match (args.board_pose, args.board_poses) {
         (Some(p), _) => vec![(format!("--board-pose {p}"), None, p)],
         (None, Some(n)) => SPREAD[..n as usize]
             .iter()
@@ -340,7 +341,8 @@ fn run_board(args: Args) -> Result<()> {
             .collect(),
         (None, None) => {
             return Err(Error::Usage(format!(
-                "--scene {CHECKERBOARD}: give the board's pose with --board-pose YAW,PITCH,ROLL,Z, or --board-poses N for N pose folders"
+                "--scene {CHECKERBOARD}: give the board's pose with --board-pose \
+                 YAW,PITCH,ROLL,Z, or --board-poses N for N pose folders"
             )))
         }
     };
