@@ -605,7 +605,10 @@ fn non_negative_solve<const S: usize>(
         }
         let Some(t) = best else { break };
         free[t] = true;
-        loop {
+        // Each pass leaves at least one weight (the one that blocks the step) out of the free
+        // set, so at most n passes: rounding must not leave it a hair above zero and free,
+        // which would repeat the same step for ever.
+        for _ in 0..n {
             let mut s = [0.0f64; S];
             if !solve_free(a, y, &free, n, &mut s) {
                 return false;
@@ -616,17 +619,24 @@ fn non_negative_solve<const S: usize>(
             }
             // Step from w towards s until the first free weight reaches zero.
             let mut alpha = 1.0f64;
+            let mut blocking = None;
             for j in 0..n {
                 if free[j] && s[j] <= 0.0 {
-                    let step = w[j] / (w[j] - s[j]);
-                    if step < alpha {
+                    // w_j > 0 ≥ s_j for every free weight but the one just freed (w_j = 0).
+                    let step = if w[j] > 0.0 {
+                        w[j] / (w[j] - s[j])
+                    } else {
+                        0.0
+                    };
+                    if blocking.is_none() || step < alpha {
                         alpha = step;
+                        blocking = Some(j);
                     }
                 }
             }
             for j in 0..n {
                 w[j] += alpha * (s[j] - w[j]);
-                if free[j] && w[j] <= 0.0 {
+                if free[j] && (w[j] <= 0.0 || blocking == Some(j)) {
                     free[j] = false;
                     w[j] = 0.0;
                 }

@@ -89,7 +89,12 @@ pub(crate) fn find_peaks(
         // of a short sequence fills most bins and the median would measure the peak itself.
         fit.apply(kernel, residual, -1.0);
         let (next_bin, next_noise) = scan(residual, scratch);
-        if fit.model(kernel, peak_bin).norm() <= settings.noise_factor * next_noise {
+        let norm = fit.model(kernel, peak_bin).norm();
+        if norm <= settings.noise_factor * next_noise
+            && !(fits.len() + 1 < settings.max_peaks as usize
+                && residual.magnitude(next_bin) > settings.noise_factor * next_noise
+                && both_above_noise(plan, kernel, table, residual, scratch, norm, next_bin))
+        {
             // Back to the residual the previous scan measured.
             fit.apply(kernel, residual, 1.0);
             break;
@@ -160,6 +165,37 @@ fn fit_centred(
 ) -> Option<Fit> {
     let (fit, centre) = fit_recentred(kernel, table, residual, centre)?;
     Some(widened(kernel, residual, domain, centre, fit))
+}
+
+/// Whether a peak of modelled magnitude `norm`, already removed from `residual`, and the light
+/// at `next_bin` both stand above the noise once that light is removed too. With a short
+/// sequence (16 fringes) two lights' sidelobes cover every bin, so the residual one light
+/// leaves measures the other light, not the noise: each light alone fails its noise test and
+/// the pair would be lost. The look-ahead leaves `residual` as it found it; the search then
+/// finds the second light in its own turn.
+fn both_above_noise(
+    plan: &ScanPlan,
+    kernel: &Kernel<'_>,
+    table: &FitTable<'_>,
+    residual: &mut Spectrum<'_>,
+    scratch: &mut [f32],
+    norm: f32,
+    next_bin: usize,
+) -> bool {
+    let settings = plan.decoding;
+    let domain = FitDomain::of(plan);
+    let centre = round(next_bin as f32 * domain.bin_width) as i32;
+    let Some(next) = fit_centred(kernel, table, residual, &domain, centre) else {
+        return false;
+    };
+    if next.weights.amplitude() <= settings.min_amplitude_dn {
+        return false;
+    }
+    next.apply(kernel, residual, -1.0);
+    let (_, noise) = scan(residual, scratch);
+    let next_norm = next.model(kernel, next_bin).norm();
+    next.apply(kernel, residual, 1.0);
+    norm.min(next_norm) > settings.noise_factor * noise
 }
 
 /// Fits at `centre`, then once or twice more at the rounded centroid if it moved away; returns

@@ -135,3 +135,70 @@ proptest! {
         }
     }
 }
+
+/// Two lights of `plan` at `a` and `a + separation`, decoded in group 1: the peaks' columns.
+fn two_lights(
+    plan: ScanPlan,
+    a: f64,
+    separation: f64,
+    ratio: f64,
+    seed: u64,
+) -> (f64, f64, Vec<f32>) {
+    let b = a + separation;
+    let (pa, pb) = (
+        Pixel::spot(a, 0.6, 1500.0),
+        Pixel::spot(b, 0.6, 1500.0 * ratio),
+    );
+    let (ta, tb) = (pa.centroid_near(a), pb.centroid_near(b));
+    let mut h = Harness::new(plan);
+    let samples = pa.plus(pb).samples(&plan, 1.0, 12, &mut Noise::new(seed));
+    let peaks = h.peaks(&samples, Group::One, 12).peaks;
+    (ta, tb, peaks.iter().map(|p| p.column).collect())
+}
+
+fn assert_both_found(ta: f64, tb: f64, columns: &[f32], tolerance: f64) {
+    for truth in [ta, tb] {
+        let error = columns
+            .iter()
+            .map(|&c| (c as f64 - truth).abs())
+            .fold(f64::INFINITY, f64::min);
+        assert!(error < tolerance, "{truth} missed by {error}: {columns:?}");
+    }
+}
+
+/// Found by the property above: EFSM cB 16 with 16 fringes, lights 4.5 columns apart. Each
+/// light's sidelobes cover every bin, so the residual one light leaves measures the other, and
+/// each failed its noise test alone: both were lost until the search looked one light ahead.
+#[test]
+fn two_lights_of_a_sixteen_fringe_sequence_are_both_found() {
+    let mut plan = ScanPlan::efsm(200, 16, GroupCount::One);
+    plan.band.count = 16;
+    let separation = 2.0 * plan.column_resolution() as f64 + 0.5;
+    let a = 3.0 + 0.09785236533299703 * (16.0 - separation - 6.0);
+    let (ta, tb, columns) = two_lights(plan, a, separation, 0.831969612037496, 0);
+    assert_both_found(ta, tb, &columns, 0.3);
+}
+
+/// Found by the property above: this pixel made the non-negative solver's inner loop step for
+/// ever (the weight that blocked the step stayed a rounding error above zero, so free). The
+/// decoder must return, with both lights.
+#[test]
+fn non_negative_solve_terminates_where_rounding_blocks_a_step() {
+    let plan = ScanPlan {
+        projector_columns: 96,
+        band: FringeBand {
+            period_columns: 192,
+            first_harmonic: 1,
+            count: 58,
+        },
+        transform_size: 64,
+        method: Method::Bfsm,
+        ..ScanPlan::paper_bfsm()
+    };
+    plan.validate().unwrap();
+    let separation = 2.0 * plan.column_resolution() as f64 + 4.249241922599397;
+    let a = 3.0 + 0.12985513372654464 * (96.0 - separation - 6.0);
+    let (ta, tb, columns) =
+        two_lights(plan, a, separation, 0.8301219966224936, 3039982697155504507);
+    assert_both_found(ta, tb, &columns, 0.3);
+}
