@@ -53,7 +53,6 @@ pub struct ProjectorSettings {
     pub lm: LmSettings,
 }
 
-
 /// The projector's column model: the part of a pinhole a column depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ColumnModel {
