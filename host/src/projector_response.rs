@@ -29,7 +29,6 @@
 //! points form a table (refused if not strictly increasing, naming the level) and the best-fit
 //! power law `light = code^gamma` (least squares in light, with its RMS residual).
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
@@ -801,35 +800,6 @@ pub fn estimate(
     estimator.finish(between)
 }
 
-/// The numbered grey images of `dir` (`<digits>.png|.tif|.tiff`), by number.
-fn numbered_images(dir: &Path) -> Result<BTreeMap<usize, PathBuf>> {
-    let mut found = BTreeMap::new();
-    for entry in std::fs::read_dir(dir).at(dir)? {
-        let path = entry.at(dir)?.path();
-        let (Some(stem), Some(_)) = (
-            path.file_stem().and_then(|s| s.to_str()),
-            ImageFormat::of(&path),
-        ) else {
-            continue;
-        };
-        if stem.is_empty() || !stem.bytes().all(|b| b.is_ascii_digit()) {
-            continue;
-        }
-        let Ok(index) = stem.parse::<usize>() else {
-            continue;
-        };
-        if let Some(first) = found.insert(index, path.clone()) {
-            return Err(Error::Usage(format!(
-                "{}: {} and {} both claim capture {index}",
-                dir.display(),
-                first.display(),
-                path.display()
-            )));
-        }
-    }
-    Ok(found)
-}
-
 /// The estimate from a folder of captures numbered like the grey-level set (`0000.png` shows
 /// `codes[0]`, …; PNG or TIFF, 8 or 16-bit), sensor depth `bit_depth` (default: the
 /// container's). Errors name the file and what is wrong with it.
@@ -842,7 +812,7 @@ pub fn estimate_from_folder(
         path: dir.to_path_buf(),
         message,
     })?;
-    let found = numbered_images(dir)?;
+    let found = crate::stack::numbered_images(dir)?;
     if let Some(missing) = (0..codes.len()).find(|i| !found.contains_key(i)) {
         return Err(Error::Usage(format!(
             "{}: {} numbered images found, the grey-level set has {} (numbered 0 to {}); capture {missing} is missing",

@@ -102,7 +102,7 @@ pub struct Stack {
 }
 
 /// Lists `dir`'s numbered images (`<digits>.<png|tif|tiff>`) by frame number.
-fn numbered_images(dir: &Path) -> Result<BTreeMap<usize, PathBuf>, StackError> {
+pub(crate) fn numbered_images(dir: &Path) -> Result<BTreeMap<usize, PathBuf>, StackError> {
     let folder_error = |source| StackError::Folder {
         dir: dir.to_path_buf(),
         source,
