@@ -19,14 +19,16 @@
 //! standoff after alignment (0.46 mm raw: the camera frame's own rotation, cx off by 0.5 px);
 //! with the true corners 0.0034 column and 0.0002%.
 
+mod support;
+
 use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::{calibrate, corners, CalibrationSettings, ColumnMap, PoseObservation};
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan};
-use fsm_geometry::Calibration;
 use fsm_sim::target::{self, BoardPose};
 use fsm_sim::{simulate, Scene, Sensor, System};
-use nalgebra::{Matrix3, Point2, Point3, Vector3};
+use nalgebra::Point2;
 use std::sync::OnceLock;
+use support::plane_deviation;
 
 const K: usize = 8;
 
@@ -61,57 +63,6 @@ fn scan(plan: &ScanPlan, scene: &Scene, system: &System, seed: u64) -> (Vec<f32>
         );
     }
     (white, columns)
-}
-
-/// RMS distance of the `plane` scene's points triangulated with `cal` from true (pixel,
-/// column) pairs, raw and after the best rigid alignment (Kabsch).
-fn plane_deviation(truth: &Calibration, cal: &Calibration) -> (f64, f64) {
-    let (w, h) = (truth.camera.width_px(), truth.camera.height_px());
-    let mut got = Vec::new();
-    let mut want = Vec::new();
-    for y in (0..h).step_by(4) {
-        for x in (0..w).step_by(4) {
-            let px = Point2::new(x as f64, y as f64);
-            let ray = truth.camera.ray(px).unwrap();
-            let point = Point3::from(ray * (500.0 / ray.z));
-            let Some(c) = truth.projector_column_of(&point) else {
-                continue;
-            };
-            if !(0.0..truth.projector_columns() as f64).contains(&c) {
-                continue;
-            }
-            got.push(cal.triangulate(px, c).unwrap());
-            want.push(point);
-        }
-    }
-    let n = got.len() as f64;
-    let rms = |a: &[Point3<f64>], b: &[Point3<f64>]| {
-        (a.iter()
-            .zip(b)
-            .map(|(p, q)| (p - q).norm_squared())
-            .sum::<f64>()
-            / n)
-            .sqrt()
-    };
-    let raw = rms(&got, &want);
-    let cg = got.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
-    let cw = want.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
-    let mut m = Matrix3::zeros();
-    for (p, q) in got.iter().zip(&want) {
-        m += (p.coords - cg) * (q.coords - cw).transpose();
-    }
-    let svd = m.svd(true, true);
-    let (u, v_t) = (svd.u.unwrap(), svd.v_t.unwrap());
-    let mut d = Matrix3::identity();
-    if (v_t.transpose() * u.transpose()).determinant() < 0.0 {
-        d[(2, 2)] = -1.0;
-    }
-    let r = v_t.transpose() * d * u.transpose();
-    let aligned: Vec<Point3<f64>> = got
-        .iter()
-        .map(|p| Point3::from(r * (p.coords - cg) + cw))
-        .collect();
-    (raw, rms(&aligned, &want))
 }
 
 /// (yaw, pitch, roll) degrees, centre of the corner grid (camera frame, mm). Every pose is
