@@ -2,7 +2,9 @@
 //! `core/scripts/instructions-per-pixel.sh`, which counts instructions with callgrind (exact and
 //! repeatable on a busy machine, and comparable with the firmware's count on the Cortex-A9).
 //!
-//! `cargo run --release -p fsm-core --example decode_loop -- bfsm|efsm1|efsm2[-shadow] [n]`
+//! `cargo run --release -p fsm-core --example decode_loop -- bfsm|efsm1|efsm2[-fast][-shadow] [n]`
+//!
+//! `-fast`: the paper's local-maximum search without zero padding ([`ScanPlan::with_local_maxima`]).
 //!
 //! Three pixels in four are lit by one column pair (1200 + 600 DN), one in four also by a second
 //! column (500 DN) elsewhere: the interreflection case. With `-shadow` (e.g. `efsm1-shadow`)
@@ -17,12 +19,19 @@ fn main() {
         Some(Some(base)) => (Some(base), true),
         _ => (name.as_deref(), false),
     };
-    let plan = match name {
+    let (name, fast) = match name.map(|n| n.strip_suffix("-fast")) {
+        Some(Some(base)) => (Some(base), true),
+        _ => (name, false),
+    };
+    let mut plan = match name {
         Some("efsm1") => ScanPlan::paper_efsm(GroupCount::One),
         Some("efsm2") => ScanPlan::paper_efsm(GroupCount::Two),
         Some("bfsm") | None => ScanPlan::paper_bfsm(),
         Some(other) => panic!("unknown plan {other}: use bfsm, efsm1 or efsm2"),
     };
+    if fast {
+        plan = plan.with_local_maxima();
+    }
     let repeats: usize = args.next().map_or(100, |n| n.parse().expect("a count"));
     let width = 256;
     let columns = plan.projector_columns as usize;

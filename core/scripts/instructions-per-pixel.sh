@@ -2,7 +2,8 @@
 # Instructions the line decoder executes per pixel on this machine (x86_64), counted by
 # callgrind: the difference between 6 and 2 decodes of a 256-pixel row, so set-up cancels.
 # Usage: core/scripts/instructions-per-pixel.sh [bfsm] [efsm1] [efsm2] [efsm1-shadow] ...
-# (a plan name with -shadow: every pixel in shadow, see core/examples/decode_loop.rs)
+# (a plan name with -fast: the local-maximum search; with -shadow: every pixel in shadow; e.g.
+# efsm1-fast-shadow; see core/examples/decode_loop.rs)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 command -v valgrind >/dev/null || { echo "valgrind is needed (apt-get install valgrind)" >&2; exit 1; }

@@ -60,25 +60,36 @@ fn merge_views(
 /// The levels of one group's masks at one pixel.
 pub(crate) struct MaskLevels<F: Fn(u16) -> u16> {
     /// Sample of mask `i`.
-    pub sample: F,
+    sample: F,
     /// Number of masks.
-    pub count: u16,
+    count: u16,
     /// Dark-frame sample of the pixel.
-    pub dark: u16,
+    dark: u16,
     /// The pixel's sample noise RMS, sensor DN.
-    pub noise_dn: f32,
+    noise_dn: f32,
+    /// The brightest mask's sample (0 without masks).
+    brightest: u16,
 }
 
 impl<F: Fn(u16) -> u16> MaskLevels<F> {
+    /// The `count` masks `sample(0..count)` of a pixel whose dark sample is `dark`.
+    pub fn new(sample: F, count: u16, dark: u16, noise_dn: f32) -> Self {
+        let brightest = (0..count).map(&sample).max().unwrap_or(0);
+        MaskLevels {
+            sample,
+            count,
+            dark,
+            noise_dn,
+            brightest,
+        }
+    }
+
     /// `I_min − dark`: the margin a mask must exceed the dark level by: the larger of
     /// `mask_noise_factor ×` the pixel's noise and `mask_relative_floor ×` the brightest mask's
     /// excess (light scattered from far blocks is not a block that lights the pixel).
     pub fn margin(&self, plan: &ScanPlan) -> f32 {
-        let brightest = (0..self.count)
-            .map(|i| self.excess(i))
-            .fold(0.0f32, f32::max);
         let d = plan.decoding;
-        (d.mask_noise_factor * self.noise_dn).max(d.mask_relative_floor * brightest)
+        (d.mask_noise_factor * self.noise_dn).max(d.mask_relative_floor * self.brightest_excess())
     }
 
     /// `I_b − dark` of mask `i`, sensor DN.
@@ -86,9 +97,14 @@ impl<F: Fn(u16) -> u16> MaskLevels<F> {
         (self.sample)(mask) as f32 - self.dark as f32
     }
 
+    /// The brightest mask's excess over dark, at least 0 (exact: codes are below 2^24).
+    pub fn brightest_excess(&self) -> f32 {
+        self.brightest.saturating_sub(self.dark) as f32
+    }
+
     /// Whether any mask sample reaches `saturation`.
     pub fn saturated(&self, saturation: u16) -> bool {
-        (0..self.count).any(|i| (self.sample)(i) >= saturation)
+        self.count > 0 && self.brightest >= saturation
     }
 }
 
@@ -147,11 +163,8 @@ pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
 /// it is not aliasing.
 fn aliased<F: Fn(u16) -> u16>(plan: &ScanPlan, peaks: &PeakList, masks: &MaskLevels<F>) -> bool {
     let peaks = &peaks.peaks;
-    let brightest = (0..masks.count)
-        .map(|i| masks.excess(i))
-        .fold(0.0f32, f32::max);
-    let block_light =
-        SHARED_PEAK_RATIO * brightest + plan.decoding.mask_noise_factor * masks.noise_dn;
+    let block_light = SHARED_PEAK_RATIO * masks.brightest_excess()
+        + plan.decoding.mask_noise_factor * masks.noise_dn;
     let light = |amplitude: f32| amplitude / plan.levels.amplitude;
     let separable = 2.0 * plan.column_resolution();
     peaks.iter().any(|p| light(p.amplitude) > block_light)

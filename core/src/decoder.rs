@@ -12,7 +12,8 @@ use crate::block::{self, MaskLevels};
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
 use crate::deconvolution::FitTable;
 use crate::kernel::{self, Kernel};
-use crate::plan::{Method, PlanError, ScanPlan, Window};
+use crate::maxima;
+use crate::plan::{Method, PeakSearch, PlanError, ScanPlan, Window};
 use crate::search::{self, PeakList};
 use crate::sequence::Group;
 use crate::spectrum::{self, Spectrum};
@@ -231,8 +232,10 @@ impl<'t> Decoder<'t> {
                 actual: out.len(),
             });
         }
+        // One peak list for the row: creating one per pixel clears 600 bytes each time.
+        let mut peaks = PeakList::default();
         for (x, pixel) in out.iter_mut().enumerate() {
-            self.decode_checked(row, x, scratch, pixel);
+            self.decode_checked(row, x, scratch, &mut peaks, pixel);
         }
         Ok(())
     }
@@ -252,7 +255,7 @@ impl<'t> Decoder<'t> {
                 width: row.width,
             });
         }
-        self.decode_checked(row, x, scratch, out);
+        self.decode_checked(row, x, scratch, &mut PeakList::default(), out);
         Ok(())
     }
 
@@ -292,7 +295,9 @@ impl<'t> Decoder<'t> {
             });
         }
         self.load(row, x, group, scratch);
-        Ok(self.search(scratch))
+        let mut peaks = PeakList::default();
+        self.search(scratch, &mut peaks);
+        Ok(peaks)
     }
 
     fn check(&self, row: &Row<'_>, scratch: &[f32]) -> Result<(), RowError> {
@@ -335,17 +340,10 @@ impl<'t> Decoder<'t> {
         let start = self.plan.fringe_start(group);
         let w = row.width;
         // Frame `start + m` at pixel `x`, every `w` samples (the row's length is checked).
-        let samples = row
-            .frames
-            .get(start * w + x..)
-            .unwrap_or(&[])
-            .iter()
-            .step_by(w)
-            .take(self.plan.band.count as usize)
-            .copied();
         let stats = spectrum::compute(
             &self.plan,
-            samples,
+            row.frames.get(start * w + x..).unwrap_or(&[]),
+            w,
             self.window,
             self.inverse_window_sum,
             saturation_code(row.bit_depth),
@@ -354,11 +352,17 @@ impl<'t> Decoder<'t> {
         stats.saturated
     }
 
-    fn search(&self, scratch: &mut [f32]) -> PeakList {
+    /// The peaks of the spectrum in `scratch`, written to `out` (a `PeakList` is 600 bytes:
+    /// returning it would copy it on the camera).
+    fn search(&self, scratch: &mut [f32], out: &mut PeakList) {
         let n = self.plan.transform_size as usize;
         let (spectrum, rest) = scratch.split_at_mut(n + 2);
         let mut residual = Spectrum::new(spectrum, n);
-        search::find_peaks(&self.plan, &self.kernel, &self.fits, &mut residual, rest)
+        let (plan, kernel, fits) = (&self.plan, &self.kernel, &self.fits);
+        match self.plan.decoding.search {
+            PeakSearch::Clean => search::find_peaks(plan, kernel, fits, &mut residual, rest, out),
+            PeakSearch::LocalMaxima => maxima::find_peaks(plan, kernel, fits, &residual, rest, out),
+        }
     }
 
     fn decode_checked<const K: usize>(
@@ -366,6 +370,7 @@ impl<'t> Decoder<'t> {
         row: &Row<'_>,
         x: usize,
         scratch: &mut [f32],
+        peaks: &mut PeakList,
         out: &mut PixelCandidates<K>,
     ) {
         out.clear();
@@ -381,7 +386,7 @@ impl<'t> Decoder<'t> {
             if self.load(row, x, group, scratch) {
                 out.flags.insert(PixelFlags::SATURATED);
             }
-            let peaks = self.search(scratch);
+            self.search(scratch, peaks);
             let noise_dn = peaks.bin_noise * self.bin_to_sample_noise;
             out.noise_dn = out.noise_dn.max(noise_dn);
             match plan.method {
@@ -404,17 +409,17 @@ impl<'t> Decoder<'t> {
                     let start = plan.mask_start(group);
                     // EFSM plans always carry a dark frame (validated).
                     let dark = plan.dark_index().map_or(0, sample);
-                    let masks = MaskLevels {
-                        sample: |i: u16| sample(start + i as usize),
-                        count: plan.mask_count(group),
+                    let masks = MaskLevels::new(
+                        |i: u16| sample(start + i as usize),
+                        plan.mask_count(group),
                         dark,
                         noise_dn,
-                    };
+                    );
                     if masks.saturated(saturation) || dark >= saturation {
                         out.flags.insert(PixelFlags::SATURATED);
                     }
                     aliased_in_every_group &=
-                        block::recover(plan, &coding, group, &peaks, &masks, &range, out);
+                        block::recover(plan, &coding, group, peaks, &masks, &range, out);
                 }
             }
         }

@@ -12,6 +12,7 @@
 //! | mean removal, window, zero padding, real DFT | [`spectrum`] | §III-D, eq. 9 |
 //! | modelled spectrum of one lit column | [`kernel`] | SPEC §2 |
 //! | peaks without sidelobes (CLEAN) | [`search`] | §III-D, SPEC §2 |
+//! | the paper's local-maximum detector (fast) | [`maxima`] | §III-D |
 //! | sub-pixel column | [`deconvolution`], [`peak`] | refs. \[31\], \[42\] |
 //! | EFSM border guard, blocks, candidates | [`block`] | eqs. 16–20 |
 //! | candidates of a pixel | [`candidate`] | eq. 18 |
@@ -41,7 +42,8 @@
 //! assert!((out[1].strongest().unwrap().column - 300.0).abs() < 0.05);
 //! ```
 #![no_std]
-#![forbid(unsafe_code)]
+// One audited exception: `math::sqrt` on the ARM hard-float target (one VFP instruction).
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod block;
@@ -50,6 +52,7 @@ pub mod decoder;
 pub mod deconvolution;
 pub mod kernel;
 pub mod math;
+pub mod maxima;
 pub mod noise;
 pub mod peak;
 pub mod phase_shift;
@@ -65,7 +68,7 @@ pub use peak::Peak;
 pub use phase_shift::{PatternSequence, PhaseShiftPlan};
 pub use plan::{
     BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
-    PlanError, References, ScanPlan, Window,
+    PeakSearch, PlanError, References, ScanPlan, Window,
 };
 pub use search::PeakList;
 pub use sequence::{Group, Pattern};

@@ -23,7 +23,8 @@ pub struct Peak {
     pub magnitude: f32,
     /// Bin of the isolated peak's maximum.
     pub bin: u16,
-    /// The fitted column weights (SPEC §2 local deconvolution).
+    /// The fitted column weights (SPEC §2 local deconvolution); none (`len` 0) when the
+    /// local-maximum search measured the peak with a magnitude estimator.
     pub weights: ColumnWeights,
 }
 
@@ -93,6 +94,17 @@ fn blais_rioux(f: &Neighbourhood, half: i32) -> Option<f32> {
 pub(crate) fn mirrored_bin(bin: i64, bins: usize) -> usize {
     let last = bins as i64 - 1;
     let period = 2 * last;
+    // The cases every caller meets first, without a division (the Cortex-A9 has no integer
+    // divider: a 64-bit remainder is a library call of ~100 instructions).
+    if (0..=last).contains(&bin) {
+        return bin as usize;
+    }
+    if (-last..0).contains(&bin) {
+        return (-bin) as usize;
+    }
+    if (last..=period).contains(&bin) {
+        return (period - bin) as usize;
+    }
     let b = bin.rem_euclid(period);
     (if b > last { period - b } else { b }) as usize
 }
@@ -103,10 +115,55 @@ pub(crate) fn neighbourhood(
     bins: usize,
     value: impl Fn(usize) -> Complex,
 ) -> Neighbourhood {
+    magnitude_neighbourhood(centre, bins, NEIGHBOURHOOD - 1, |k| value(k).norm())
+}
+
+/// Bins either side of the peak `estimator` reads.
+pub(crate) fn reach(estimator: PeakEstimator) -> usize {
+    match estimator {
+        PeakEstimator::Gaussian | PeakEstimator::Parabolic | PeakEstimator::Deconvolution => 1,
+        PeakEstimator::BlaisRioux4 => 3,
+        PeakEstimator::BlaisRioux8 => NEIGHBOURHOOD - 1,
+    }
+}
+
+/// Builds a neighbourhood from a closure giving the magnitude of any bin in range, reading the
+/// `reach ≤ 5` bins either side of `centre` (the others stay 0).
+pub(crate) fn magnitude_neighbourhood(
+    centre: usize,
+    bins: usize,
+    reach: usize,
+    magnitude: impl Fn(usize) -> f32,
+) -> Neighbourhood {
     let mut magnitudes = [0.0; 2 * NEIGHBOURHOOD - 1];
-    for (i, m) in magnitudes.iter_mut().enumerate() {
-        let k = mirrored_bin(centre as i64 + i as i64 - (NEIGHBOURHOOD as i64 - 1), bins);
-        *m = value(k).norm();
+    let middle = NEIGHBOURHOOD - 1;
+    let reach = reach.min(middle);
+    for (i, m) in magnitudes
+        .iter_mut()
+        .enumerate()
+        .take(middle + reach + 1)
+        .skip(middle - reach)
+    {
+        let k = mirrored_bin(centre as i64 + i as i64 - middle as i64, bins);
+        *m = magnitude(k);
     }
     Neighbourhood { magnitudes }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mirrored_bin;
+
+    #[test]
+    fn mirrored_bin_reflects_like_the_remainder_it_avoids() {
+        for bins in [2usize, 3, 33, 65, 513] {
+            let last = bins as i64 - 1;
+            let period = 2 * last;
+            for bin in -3 * period..=3 * period {
+                let b = bin.rem_euclid(period);
+                let expected = if b > last { period - b } else { b } as usize;
+                assert_eq!(mirrored_bin(bin, bins), expected, "bin {bin} of {bins}");
+            }
+        }
+    }
 }

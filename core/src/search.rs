@@ -42,15 +42,16 @@ pub struct PeakList {
     pub bin_noise: f32,
 }
 
-/// Finds the peaks of `residual` (which it leaves as the residual). `scratch` holds at least
-/// `N/2 + 1` floats.
+/// Finds the peaks of `residual` (which it leaves as the residual) and writes them to `out`.
+/// `scratch` holds at least `N/2 + 1` floats.
 pub(crate) fn find_peaks(
     plan: &ScanPlan,
     kernel: &Kernel<'_>,
     table: &FitTable<'_>,
     residual: &mut Spectrum<'_>,
     scratch: &mut [f32],
-) -> PeakList {
+    out: &mut PeakList,
+) {
     let settings = plan.decoding;
     let domain = FitDomain::of(plan);
     let mut fits: Vec<Fit, MAX_PEAKS> = Vec::new();
@@ -142,16 +143,13 @@ pub(crate) fn find_peaks(
         None => scan(residual, scratch).1,
     };
 
-    let mut list = PeakList {
-        peaks: Vec::new(),
-        bin_noise,
-    };
+    out.peaks.clear();
+    out.bin_noise = bin_noise;
     for fit in fits.iter() {
         if let Some(peak) = describe(plan, kernel, residual, &domain, fit) {
-            let _ = list.peaks.push(peak);
+            let _ = out.peaks.push(peak);
         }
     }
-    list
 }
 
 /// Fits at `centre`, then once or twice more at the rounded centroid if it moved away; a fit
@@ -200,7 +198,7 @@ fn both_above_noise(
 
 /// Fits at `centre`, then once or twice more at the rounded centroid if it moved away; returns
 /// the fit and the centre it was fitted at.
-fn fit_recentred(
+pub(crate) fn fit_recentred(
     kernel: &Kernel<'_>,
     table: &FitTable<'_>,
     residual: &Spectrum<'_>,
@@ -439,18 +437,18 @@ fn noise_without(kernel: &Kernel<'_>, residual: &Spectrum<'_>, fit: &Fit) -> f32
 }
 
 /// Most bins the noise median is taken over.
-const MEDIAN_SAMPLES: usize = 128;
+pub(crate) const MEDIAN_SAMPLES: usize = 128;
 
 /// An integer whose order is `f32::total_cmp`'s, and whose bits are the float's for `x ≥ +0`.
 #[inline]
-fn total_order_key(x: f32) -> i32 {
+pub(crate) fn total_order_key(x: f32) -> i32 {
     let bits = x.to_bits() as i32;
     bits ^ (((bits >> 31) as u32) >> 1) as i32
 }
 
 /// The `k`-th smallest of `v` (which it reorders), by Wirth's selection with a median-of-three
 /// pivot: the element a sort would put at `k`, without sorting. `k < v.len()`.
-fn select(v: &mut [i32], k: usize) -> i32 {
+pub(crate) fn select(v: &mut [i32], k: usize) -> i32 {
     let k = k as isize;
     let (mut lo, mut hi) = (0isize, v.len() as isize - 1);
     while lo < hi {

@@ -78,48 +78,56 @@ pub(crate) struct SampleStats {
     pub saturated: bool,
 }
 
-/// Fills `buffer[..N+2]` with the spectrum of `samples` (the `M` fringe samples of one pixel).
+/// Fills `buffer[..N+2]` with the spectrum of one pixel's `M` fringe samples, sample `m`
+/// being `frames[m·stride]` (a temporal row is sample-major: `stride` is the row's width).
 ///
 /// `window` holds `h_m` (empty for the rectangular window) and `inverse_window_sum` is
-/// `1/Σh`. The mean is computed exactly in integers so that no sample order or platform can
-/// change it.
-pub(crate) fn compute<I>(
+/// `1/Σh`; the scaling is applied to the samples, before the (linear) transform, where it costs
+/// `M` products instead of `N + 2`. The mean is computed exactly in integers so that no sample
+/// /// order or platform can change it. `frames` must hold `(M − 1)·stride + 1` samples (missing
+/// ones count as 0; a checked row has them all).
+pub(crate) fn compute(
     plan: &ScanPlan,
-    samples: I,
+    frames: &[u16],
+    stride: usize,
     window: &[f32],
     inverse_window_sum: f32,
     saturation: u16,
     buffer: &mut [f32],
-) -> SampleStats
-where
-    I: Iterator<Item = u16>,
-{
+) -> SampleStats {
     let n = plan.transform_size as usize;
     let m = plan.band.count as usize;
-    let mut sum: u64 = 0;
-    let mut saturated = false;
+    // `M ≤ N ≤ 4096` codes below 2^16: the sum fits a u32 (a u64 costs a carry per sample and a
+    // library conversion on the camera).
+    let mut sum: u32 = 0;
+    let mut brightest = 0u16;
     let (head, tail) = buffer[..n + 2].split_at_mut(m);
     // One pass over the samples (exact in f32), then the mean removal and window in place.
-    for (z, s) in head.iter_mut().zip(samples) {
-        sum += s as u64;
-        saturated |= s >= saturation;
-        *z = s as f32;
+    match frames.get(..(m.max(1) - 1) * stride + 1) {
+        Some(column) => {
+            // One bounds check for the whole column; the loop reads every `stride`-th sample.
+            for (i, z) in head.iter_mut().enumerate() {
+                let s = column[i * stride];
+                sum += s as u32;
+                brightest = brightest.max(s);
+                *z = s as f32;
+            }
+        }
+        None => head.fill(0.0),
     }
+    let saturated = brightest >= saturation;
     let mean = (sum as f64 / m as f64) as f32;
     if window.is_empty() {
         for z in head.iter_mut() {
-            *z -= mean;
+            *z = (*z - mean) * inverse_window_sum;
         }
     } else {
         for (z, h) in head.iter_mut().zip(window) {
-            *z = (*z - mean) * h;
+            *z = (*z - mean) * (h * inverse_window_sum);
         }
     }
     tail.fill(0.0);
     real_dft(buffer, n);
-    for x in buffer[..n + 2].iter_mut() {
-        *x *= inverse_window_sum;
-    }
     SampleStats { mean, saturated }
 }
 

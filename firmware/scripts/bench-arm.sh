@@ -4,6 +4,8 @@
 # on the mirror scene (interreflections on a third of every row, a shadow at its end).
 #
 # Usage: scripts/bench-arm.sh [--rows N] [--width W]     (default 8 rows of 48 pixels)
+# Plans: the paper's three with the CLEAN search, then the same with the local-maximum search
+# (-fast, `DecodeSettings::local_maxima`); FW_BENCH_PLANS="efsm1 efsm1-fast" picks some.
 # Environment: FW_ELF (default: build with scripts/build-arm.sh), ICOUNT_SHIFT (default 4).
 #
 # For each plan it prints the firmware's BENCH lines:
@@ -45,7 +47,7 @@ cd "$WORK"
 
 status=0
 echo "firmware benchmark: $ROWS rows x $WIDTH pixels per plan, QEMU -icount shift=${ICOUNT_SHIFT:-4} (exact)"
-for p in bfsm efsm1 efsm2; do
+for p in ${FW_BENCH_PLANS:-bfsm efsm1 efsm2 bfsm-fast efsm1-fast efsm2-fast}; do
     "$TOOL" scene --plan "$p" --width "$WIDTH" --rows "$ROWS" --dump "$p.dump" --plan-out "$p.plan" >/dev/null
     "$TOOL" decode --plan "$p.plan" --dump "$p.dump" --out "$p.host.cand" >/dev/null
     rm -f fw-candidates.bin fw-candidates-per-pixel.bin

@@ -2,7 +2,8 @@
 # End-to-end check of the bare-metal firmware, the one entry point `.ci/run` calls: install what
 # is missing, build the ARM ELF, cross-check its candidates against the host's decode under
 # QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections, on the firmware's
-# own mirror scene and on the simulator's plane_mirror), check how it
+# own mirror scene and on the simulator's plane_mirror, with CLEAN and with the local-maximum
+# search), check how it
 # refuses bad input, the determinism of its instruction counts, every failure path's exit
 # code, the Rust cross-check test, and (if defmt-print is installed) defmt logging.
 # Non-interactive. Ends with the line `N passed, M failed` and exits non-zero if anything failed.
@@ -95,6 +96,25 @@ if [ "$sim_ok" = 1 ] && FW_ELF="$ELF" \
 else
     cat crosscheck-sim.txt 2>/dev/null || true
     bad "crosscheck-arm.sh on fsm simulate plane_mirror"
+fi
+
+# 2c. The local-maximum search (`ScanPlan::with_local_maxima`, the camera's fast decoder): the
+#     firmware's mirror scene with BFSM, the simulator's plane_mirror with two-group EFSM.
+fast_ok=1
+"$TOOL" scene --plan bfsm-fast --width 48 --rows 32 --dump fast-bfsm.dump --plan-out fast-bfsm.plan \
+    >/dev/null || fast_ok=0
+"$FSM" simulate --scene plane_mirror --preset paper-efsm-2-fast --camera 48x32 --out sim-fast >/dev/null \
+    && "$FSM" plan --check sim-fast/plan.toml --wire sim-fast/plan.bin >/dev/null 2>&1 \
+    || fast_ok=0
+if [ "$fast_ok" = 1 ] && FW_ELF="$ELF" \
+    FW_DUMP_BFSM="$WORK/fast-bfsm.dump" FW_PLAN_BFSM="$WORK/fast-bfsm.plan" \
+    FW_DUMP_EFSM2="$WORK/sim-fast/scan.dump" FW_PLAN_EFSM2="$WORK/sim-fast/plan.bin" \
+    "$S/crosscheck-arm.sh" >crosscheck-fast.txt 2>&1; then
+    grep -E '^(identical|ok)' crosscheck-fast.txt
+    ok "crosscheck-arm.sh with the local-maximum search (BFSM mirror scene, EFSM 2 groups plane_mirror, 32 rows x 48 pixels): bit-identical"
+else
+    cat crosscheck-fast.txt 2>/dev/null || true
+    bad "crosscheck-arm.sh with the local-maximum search"
 fi
 
 # 3. Bad input: a dump of another plan, a truncated dump. Refused with a message naming what is

@@ -16,7 +16,8 @@ use fsm_firmware::session;
 fn usage() -> &'static str {
     "usage: fsm-firmware <command> [options]
 
-commands (PLAN is bfsm, efsm1, efsm2, or a 64-byte plan file written by `scene --plan-out`):
+commands (PLAN is bfsm, efsm1, efsm2, one of them with -fast (the paper's local-maximum
+search instead of CLEAN, e.g. efsm1-fast), or a 64-byte plan file written by `scene --plan-out`):
   scene --plan PLAN --width W --rows H --dump OUT [--plan-out FILE]
         render the mirror scene (interreflections) as a row dump
   decode --plan PLAN --dump DUMP --out CANDIDATES
@@ -111,23 +112,35 @@ impl<'a> Options<'a> {
     }
 }
 
-/// A preset name or a 64-byte plan file.
+/// A preset name or a 64-byte plan file. A preset name with `-fast` decodes with the paper's
+/// local-maximum search (`ScanPlan::with_local_maxima`) instead of CLEAN.
 fn plan(spec: &str) -> Result<ScanPlan, Failure> {
-    match spec {
-        "bfsm" => Ok(ScanPlan::paper_bfsm()),
-        "efsm1" => Ok(ScanPlan::paper_efsm(GroupCount::One)),
-        "efsm2" => Ok(ScanPlan::paper_efsm(GroupCount::Two)),
-        path => {
-            let bytes = fs::read(path).map_err(|e| err(format!("plan {path}: {e}")))?;
-            if bytes.len() != fsm_core::wire::plan::PLAN_LEN {
-                return Err(err(format!(
-                    "plan {path}: {} bytes, a plan file holds the 64 canonical bytes",
-                    bytes.len()
-                )));
-            }
-            ScanPlan::from_bytes(&bytes).map_err(|e| err(format!("plan {path}: {e}")))
-        }
+    let (preset, fast) = match spec.strip_suffix("-fast") {
+        Some(preset) => (preset, true),
+        None => (spec, false),
+    };
+    let mut plan = match preset {
+        "bfsm" => ScanPlan::paper_bfsm(),
+        "efsm1" => ScanPlan::paper_efsm(GroupCount::One),
+        "efsm2" => ScanPlan::paper_efsm(GroupCount::Two),
+        _ => return plan_file(spec),
+    };
+    if fast {
+        plan = plan.with_local_maxima();
     }
+    Ok(plan)
+}
+
+/// A 64-byte plan file.
+fn plan_file(path: &str) -> Result<ScanPlan, Failure> {
+    let bytes = fs::read(path).map_err(|e| err(format!("plan {path}: {e}")))?;
+    if bytes.len() != fsm_core::wire::plan::PLAN_LEN {
+        return Err(err(format!(
+            "plan {path}: {} bytes, a plan file holds the 64 canonical bytes",
+            bytes.len()
+        )));
+    }
+    ScanPlan::from_bytes(&bytes).map_err(|e| err(format!("plan {path}: {e}")))
 }
 
 fn read(path: &str) -> Result<Vec<u8>, Failure> {

@@ -47,14 +47,21 @@ pub enum Preset {
     PaperEfsm1,
     /// [`ScanPlan::paper_efsm`] with two groups: `cB = 64`, 152 patterns.
     PaperEfsm2,
+    /// [`Preset::PaperEfsm1`] decoded by the paper's local-maximum search
+    /// ([`ScanPlan::with_local_maxima`]): the camera's fast decoder.
+    PaperEfsm1Fast,
+    /// [`Preset::PaperEfsm2`] decoded by the local-maximum search.
+    PaperEfsm2Fast,
 }
 
 impl Preset {
     /// Every preset, with its command-line name.
-    pub const ALL: [(Preset, &'static str); 3] = [
+    pub const ALL: [(Preset, &'static str); 5] = [
         (Preset::PaperBfsm, "paper-bfsm"),
         (Preset::PaperEfsm1, "paper-efsm-1"),
         (Preset::PaperEfsm2, "paper-efsm-2"),
+        (Preset::PaperEfsm1Fast, "paper-efsm-1-fast"),
+        (Preset::PaperEfsm2Fast, "paper-efsm-2-fast"),
     ];
 
     /// The preset called `name`.
@@ -77,6 +84,8 @@ impl Preset {
             Preset::PaperBfsm => ScanPlan::paper_bfsm(),
             Preset::PaperEfsm1 => ScanPlan::paper_efsm(GroupCount::One),
             Preset::PaperEfsm2 => ScanPlan::paper_efsm(GroupCount::Two),
+            Preset::PaperEfsm1Fast => ScanPlan::paper_efsm(GroupCount::One).with_local_maxima(),
+            Preset::PaperEfsm2Fast => ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima(),
         }
     }
 }
@@ -357,6 +366,24 @@ mod tests {
                 assert_eq!(back.fingerprint(), plan.fingerprint());
             }
         }
+    }
+
+    #[test]
+    fn a_plan_file_without_the_search_decodes_with_clean() {
+        // Plan files written before `decoding.search` existed.
+        let plan = Preset::PaperEfsm2.plan();
+        let text = render_plan(&plan, PlanSyntax::Toml);
+        assert!(text.contains("search = \"Clean\""), "{text}");
+        let old: String = text
+            .lines()
+            .filter(|l| !l.starts_with("search ="))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_eq!(parse_plan(&old, PlanSyntax::Toml).unwrap(), plan);
+        let fast = Preset::PaperEfsm2Fast.plan();
+        let text = render_plan(&fast, PlanSyntax::Toml);
+        assert!(text.contains("search = \"LocalMaxima\""), "{text}");
+        assert_eq!(parse_plan(&text, PlanSyntax::Toml).unwrap(), fast);
     }
 
     #[test]

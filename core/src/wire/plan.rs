@@ -14,7 +14,8 @@
 //! | 14 | u8 | method: 0 BFSM, 1 EFSM |
 //! | 15 | u8 | EFSM groups: 1 or 2 (0 for BFSM) |
 //! | 16 | u16 | EFSM `block_width` (0 for BFSM) |
-//! | 18 | u16 | reserved, 0 |
+//! | 18 | u8 | peak search: 0 CLEAN, 1 local maxima |
+//! | 19 | u8 | reserved, 0 |
 //! | 20 | f32 | EFSM `border_guard` (0 for BFSM) |
 //! | 24 | f32 | `levels.offset` (`PA`) |
 //! | 28 | f32 | `levels.amplitude` (`PB`) |
@@ -29,7 +30,7 @@
 use super::{Reader, WireError, Writer, CRC64};
 use crate::plan::{
     BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
-    References, ScanPlan, Window,
+    PeakSearch, References, ScanPlan, Window,
 };
 
 /// Length of an encoded plan.
@@ -62,7 +63,11 @@ impl ScanPlan {
         w.u8(method);
         w.u8(groups);
         w.u16(width);
-        w.u16(0);
+        w.u8(match self.decoding.search {
+            PeakSearch::Clean => 0,
+            PeakSearch::LocalMaxima => 1,
+        });
+        w.u8(0);
         w.f32(guard);
         w.f32(self.levels.offset);
         w.f32(self.levels.amplitude);
@@ -126,8 +131,13 @@ impl ScanPlan {
             first_harmonic: r.u32(),
             count: r.u16(),
         };
-        let (method, groups, block_width, reserved, border_guard) =
-            (r.u8(), r.u8(), r.u16(), r.u16(), r.f32());
+        let (method, groups, block_width, search, reserved, border_guard) =
+            (r.u8(), r.u8(), r.u16(), r.u8(), r.u8(), r.f32());
+        let search = match search {
+            0 => PeakSearch::Clean,
+            1 => PeakSearch::LocalMaxima,
+            v => return Err(field("search", v as u64)),
+        };
         if reserved != 0 {
             return Err(field("reserved", reserved as u64));
         }
@@ -177,6 +187,7 @@ impl ScanPlan {
             v => return Err(field("estimator", v as u64)),
         };
         let decoding = DecodeSettings {
+            search,
             window,
             estimator,
             max_peaks: r.u8(),

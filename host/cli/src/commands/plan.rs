@@ -53,6 +53,13 @@ enum PresetName {
     /// ScanPlan::paper_efsm(Two): EFSM, block width 64, two groups (152 patterns).
     #[value(name = "paper-efsm-2")]
     PaperEfsm2,
+    /// paper-efsm-1 decoded by the paper's local-maximum search (Hann, Gaussian, N = 64): the
+    /// camera's fast decoder, less accurate on blurred light than CLEAN.
+    #[value(name = "paper-efsm-1-fast")]
+    PaperEfsm1Fast,
+    /// paper-efsm-2 decoded by the local-maximum search.
+    #[value(name = "paper-efsm-2-fast")]
+    PaperEfsm2Fast,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -77,6 +84,8 @@ pub fn run(args: Args) -> Result<()> {
         PresetName::PaperBfsm => Preset::PaperBfsm,
         PresetName::PaperEfsm1 => Preset::PaperEfsm1,
         PresetName::PaperEfsm2 => Preset::PaperEfsm2,
+        PresetName::PaperEfsm1Fast => Preset::PaperEfsm1Fast,
+        PresetName::PaperEfsm2Fast => Preset::PaperEfsm2Fast,
     };
     let mut settings = Vec::new();
     for s in &args.settings {
