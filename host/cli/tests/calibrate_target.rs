@@ -3,11 +3,13 @@
 //! 320 × 240 camera), calibrated from those pose folders, the result checked against the
 //! simulator's true calibration and true corner pixels; and the errors of bad input.
 //!
-//! Measured (seed 1, so repeatable): camera RMS 0.040 px, projector RMS 0.0054 column; camera
-//! fx −0.05%, projector fx −0.10%, baseline −0.08%, camera cx +0.8 px, cy −0.2 px; the
-//! detected corners 0.04 px RMS from the true ones. Seeds 2-4 give fx −0.03% to −0.11% and
-//! baseline −0.04% to −0.14%: the limits below leave a margin of 3-4 times that. About 15 s in
-//! the test profile (`cargo test -p fsm-cli --test calibrate_target -- --nocapture` prints it).
+//! Measured (seed 1, so repeatable; the simulator's rays multi-jittered per pixel): camera RMS
+//! 0.026 px, projector RMS 0.0044 column; camera fx −0.06%, projector fx −0.05%, baseline
+//! −0.06%, camera cx +0.0 px, cy +0.1 px; the detected corners 0.027 px RMS from the true ones.
+//! (With the former fixed 4 × 4 ray grid: 0.040 px, fx −0.05%, projector fx −0.10%, baseline
+//! −0.08%, cx +0.8 px; seeds 2-4 then gave fx −0.03% to −0.11% and baseline −0.04% to −0.14%:
+//! the limits below leave a margin of 3-4 times that.) About 18 s in the test profile
+//! (`cargo test -p fsm-cli --test calibrate_target -- --nocapture` prints it).
 
 use std::fs;
 use std::path::{Path, PathBuf};

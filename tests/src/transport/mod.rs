@@ -6,8 +6,9 @@
 //! signal under any frame is `ambient + Σ_j w_j·P(j)` with `P(j)` the emitted value of column
 //! `j`. The weights are computed once per scene:
 //!
-//! - **direct and mirrored light** over the pixel's footprint: `s × s` rays per pixel (stratified
-//!   over the pixel square), each followed through camera-side mirrors to a diffuse point,
+//! - **direct and mirrored light** over the pixel's footprint: `s × s` rays per pixel
+//!   (multi-jittered over the pixel square, a pattern of its own in every pixel, point-symmetric
+//!   about its centre: [`footprint`]), each followed through camera-side mirrors to a diffuse point,
 //!   where the projector's light arrives directly and through each mirror ([`paths`]); each
 //!   arrival is spread over the columns by the projector blur ([`BlurKernel`]);
 //! - **diffuse interreflection** from the scene's emitters ([`gather`]), integrated once per
@@ -15,6 +16,7 @@
 //!
 //! Rendering a frame is then a sparse dot product per pixel ([`crate::capture`]).
 
+pub mod footprint;
 pub mod gather;
 pub mod paths;
 
@@ -54,7 +56,7 @@ impl PathKind {
 /// Resolution of the transport computation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TransportSettings {
-    /// Rays per pixel along each axis (`s × s` per pixel).
+    /// Rays per pixel along each axis (`s × s` per pixel, placed by [`footprint::offsets`]).
     pub supersampling: u32,
     /// Most mirror reflections followed from the camera.
     pub max_mirror_bounces: u32,
@@ -447,73 +449,69 @@ impl Context<'_> {
                 }
             }
         }
-        for i in 0..s {
-            for j in 0..s {
-                let dx = (i as f64 + 0.5) / s as f64 - 0.5;
-                let dy = (j as f64 + 0.5) / s as f64 - 0.5;
-                let pixel = Point2::new(x as f64 + dx, y as f64 + dy);
-                let Ok(dir) = cal.camera.ray(pixel) else {
-                    first_surfaces.push(None);
-                    continue;
+        for (dx, dy) in footprint::offsets(x, y, s) {
+            let pixel = Point2::new(x as f64 + dx, y as f64 + dy);
+            let Ok(dir) = cal.camera.ray(pixel) else {
+                first_surfaces.push(None);
+                continue;
+            };
+            let Some(at) =
+                trace_to_diffuse(self.scene, origin, dir, self.settings.max_mirror_bounces)
+            else {
+                first_surfaces.push(None);
+                continue;
+            };
+            first_surfaces.push(Some(at.surface + 1000 * at.bounces as usize));
+            ambient += sample_weight * at.throughput * at.albedo * self.scene.ambient;
+            arrivals(
+                self.scene,
+                cal,
+                self.system.reference_distance_mm,
+                reach,
+                &at,
+                &mut acc.arrivals,
+            );
+            let mut direct = false;
+            for k in 0..acc.arrivals.len() {
+                let a = acc.arrivals[k];
+                let kind = if a.via_mirror || at.bounces > 0 {
+                    PathKind::Specular
+                } else {
+                    direct = true;
+                    PathKind::Direct
                 };
-                let Some(at) =
-                    trace_to_diffuse(self.scene, origin, dir, self.settings.max_mirror_bounces)
-                else {
-                    first_surfaces.push(None);
-                    continue;
-                };
-                first_surfaces.push(Some(at.surface + 1000 * at.bounces as usize));
-                ambient += sample_weight * at.throughput * at.albedo * self.scene.ambient;
-                arrivals(
-                    self.scene,
-                    cal,
-                    self.system.reference_distance_mm,
-                    reach,
-                    &at,
-                    &mut acc.arrivals,
+                let r = self.blur.deposit(
+                    &mut acc.acc[kind.index()],
+                    a.column,
+                    a.signal * sample_weight,
                 );
-                let mut direct = false;
-                for k in 0..acc.arrivals.len() {
-                    let a = acc.arrivals[k];
-                    let kind = if a.via_mirror || at.bounces > 0 {
-                        PathKind::Specular
-                    } else {
-                        direct = true;
-                        PathKind::Direct
-                    };
-                    let r = self.blur.deposit(
-                        &mut acc.acc[kind.index()],
-                        a.column,
-                        a.signal * sample_weight,
-                    );
-                    acc.touch(kind, r);
+                acc.touch(kind, r);
+            }
+            if at.bounces == 0 {
+                if direct {
+                    lit_directly.0 = true;
+                } else {
+                    lit_directly.1 = true;
                 }
-                if at.bounces == 0 {
-                    if direct {
-                        lit_directly.0 = true;
-                    } else {
-                        lit_directly.1 = true;
-                    }
-                }
-                if !self.emitters.is_empty() {
-                    let d2 = dx * dx + dy * dy;
-                    match groups
-                        .iter_mut()
-                        .find(|g| g.surface == at.surface && g.bounces == at.bounces)
-                    {
-                        Some(g) => {
-                            g.count += 1;
-                            if d2 < g.nearest.0 {
-                                g.nearest = (d2, at);
-                            }
+            }
+            if !self.emitters.is_empty() {
+                let d2 = dx * dx + dy * dy;
+                match groups
+                    .iter_mut()
+                    .find(|g| g.surface == at.surface && g.bounces == at.bounces)
+                {
+                    Some(g) => {
+                        g.count += 1;
+                        if d2 < g.nearest.0 {
+                            g.nearest = (d2, at);
                         }
-                        None => groups.push(GatherGroup {
-                            surface: at.surface,
-                            bounces: at.bounces,
-                            count: 1,
-                            nearest: (d2, at),
-                        }),
                     }
+                    None => groups.push(GatherGroup {
+                        surface: at.surface,
+                        bounces: at.bounces,
+                        count: 1,
+                        nearest: (d2, at),
+                    }),
                 }
             }
         }
