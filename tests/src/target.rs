@@ -5,7 +5,7 @@
 //! default) and its light squares with a white margin around them (0.85). Both are ordinary
 //! diffuse surfaces to the light transport, so a board scene renders through the existing
 //! pipeline — the white frame, or every frame of any plan with [`crate::simulate`] — and each
-//! camera pixel integrates its footprint over the squares' edges (`s × s` stratified rays,
+//! camera pixel integrates its footprint over the squares' edges (`s × s` multi-jittered rays,
 //! [`crate::TransportSettings::supersampling`]).
 //!
 //! The board frame is the one of `fsm-calibrate`'s `Checkerboard`: origin at inner corner

@@ -998,9 +998,9 @@ mod tests {
     /// smoothing the samples cannot remove what is already aliased); but σ = 2 px raises the
     /// rolled junctions' error of the next test (RMS 0.016 → 0.027 px, worst 0.05 → 0.10 px).
     /// On rolled or tilted boards the edges cross every phase and the bias averages out; on a
-    /// fronto-parallel board with 18 px windows it is ≤ 0.012 px, well under the steps of the
-    /// renderer's ray counting (`tests/corners.rs`,
-    /// `fronto_parallel_error_is_the_renderers_ray_counting`).
+    /// fronto-parallel board with 18 px windows it is ≤ 0.012 px, well under the steps a fixed
+    /// ray grid in the renderer used to cause (the rays are now jittered per pixel:
+    /// `tests/corners.rs`, `fronto_parallel_corners_at_the_default_rays`).
     #[test]
     fn refinement_pixel_phase_bias_on_aligned_junctions() {
         for (gain, limits) in [(0.0, [0.018, 0.011, 0.011]), (0.003, [0.027, 0.014, 0.012])] {

@@ -403,7 +403,8 @@ fn full_calibration_recovers_the_bench_and_triangulates_the_plane() {
             .rotation()
             .angle_to(truth.pose.rotation())
             .to_degrees();
-        let (raw, dev) = plane_deviation(&truth, &cal);
+        let d = plane_deviation(&truth, &cal);
+        let (raw, dev) = (d.raw_mm, d.aligned_mm);
         eprintln!(
             "seed {seed}: camera rms {:.4} px, projector rms {:.4} col | camera fx {:.3}% cx {:.3} k1 {:.4} | projector fx {:.3}% cx {:.3} k1 {:.4} k2 {:.4} | t {:.3} mm R {:.4} deg | plane RMS {:.4} mm raw, {:.4} mm = {:.4}% of 500 mm after rigid alignment | iterations {:?}",
             report.camera_rms_px,
@@ -549,7 +550,7 @@ fn projector_vertical_offset_is_weakly_observable() {
     .unwrap();
     let ty = report.projector.iter().find(|p| p.name == "ty_mm").unwrap();
     let tx = report.projector.iter().find(|p| p.name == "tx_mm").unwrap();
-    let (_, dev) = plane_deviation(&truth, &cal);
+    let dev = plane_deviation(&truth, &cal).aligned_mm;
     eprintln!(
         "t.y free: {:.3} ± {:.3} mm (t.x ± {:.3} mm), plane {:.4} mm aligned, projector RMS {:.4}",
         ty.value,

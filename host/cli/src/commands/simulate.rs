@@ -156,10 +156,10 @@ impl std::fmt::Display for BoardPlacement {
     }
 }
 
-/// The poses of `--board-poses`, in order: those of host/calibrate/tests/end_to_end.rs, which
-/// calibrate the bench to its thresholds (every one tilted by 15° or more; a board parallel to
-/// the image adds little to Zhang's constraints). The first four already turn about four
-/// different axes.
+/// The poses of `--board-poses`, in order: the first nine of host/calibrate/tests/end_to_end.rs,
+/// which calibrate the bench to its thresholds (every one tilted by 15° or more). The first four
+/// already turn about four different axes. (The end-to-end test adds boards parallel to the
+/// image and turned by 90°, which pin the principal point down better.)
 const SPREAD: [BoardPlacement; 9] = [
     BoardPlacement::new(15.0, -15.0, 0.0, 540.0),
     BoardPlacement::new(30.0, 0.0, 5.0, 560.0),
