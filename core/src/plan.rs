@@ -156,7 +156,8 @@ pub enum PeakEstimator {
 /// [`PeakSearch::Clean`] is the default, chosen by measurement: it separates a direct and an
 /// indirect light two resolution steps apart and reports no sidelobe, at about 10× the cost.
 /// [`PeakSearch::LocalMaxima`] is the paper's detector, for a camera that must keep up with the
-/// frame rate; use it with the Hann window ([`DecodeSettings::local_maxima`]), whose sidelobes
+/// frame rate, where each camera pixel sees at most about 3 projector columns (a wider light's
+/// magnitude peaks at its two edges: `tests/local_maxima.rs`); use it with the Hann window ([`DecodeSettings::local_maxima`]), whose sidelobes
 /// (−31 dB) stay under a relative floor of a few percent, where the rectangular window's (−13 dB)
 /// would be reported as light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -194,6 +194,43 @@ fn the_rectangular_window_reports_sidelobes_which_the_preset_avoids() {
 }
 
 #[test]
+fn light_wider_than_a_few_columns_splits_into_its_edges() {
+    // The limit of any magnitude detector: adjacent columns' kernels differ in phase by
+    // 2π·f_centre per column (a quarter turn with the full band), so a wide light's magnitude
+    // cancels in its middle and peaks at its edges. CLEAN fits the complex spectrum and is not
+    // affected. What a camera pixel sees is about `projector columns / camera columns` wide.
+    let fast_plan = fast(ScanPlan::paper_efsm(GroupCount::Two));
+    let clean_plan = ScanPlan::paper_efsm(GroupCount::Two);
+    let light = |width: u32| {
+        (1..width).fold(Pixel::column(300, 300.0), |p, j| {
+            p.plus(Pixel::column(300 + j, 300.0))
+        })
+    };
+    for (width, splits) in [(1u32, false), (3, false), (6, true), (8, true)] {
+        let truth = 300.0 + (width as f64 - 1.0) / 2.0;
+        let pixels = [light(width)];
+        let fast = &decode_all::<8>(fast_plan, &pixels, 17)[0];
+        let clean = &decode_all::<8>(clean_plan, &pixels, 17)[0];
+        let columns: Vec<f32> = fast.candidates.iter().map(|c| c.column).collect();
+        println!("{width} columns wide, centre {truth}: local maxima {columns:?}");
+        assert_eq!(
+            clean.candidates.len(),
+            1,
+            "CLEAN, {width}: {:?}",
+            clean.candidates
+        );
+        assert!(nearest_error(clean, truth) < 0.05, "CLEAN, {width}");
+        if splits {
+            assert_eq!(columns.len(), 2, "{width}: {columns:?}");
+            assert!(nearest_error(fast, truth) > 2.0, "{width}: {columns:?}");
+        } else {
+            assert_eq!(columns.len(), 1, "{width}: {columns:?}");
+            assert!(nearest_error(fast, truth) < 0.1, "{width}: {columns:?}");
+        }
+    }
+}
+
+#[test]
 fn sequences_too_short_to_measure_noise_beside_a_light_are_refused() {
     let mut plan = ScanPlan::efsm(768, 16, GroupCount::Two).with_local_maxima();
     let e = plan.validate().unwrap_err().to_string();

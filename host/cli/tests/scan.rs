@@ -171,12 +171,23 @@ fn the_demo_reports_the_papers_comparison() {
     let e_d = |m: usize| report["methods"][m]["figures"]["e_d_mm"].as_f64().unwrap();
     assert_eq!(report["methods"][0]["method"], "BFSM");
     assert_eq!(report["methods"][2]["method"], "PS");
+    assert_eq!(report["methods"][3]["method"], "EFSM-fast");
     assert!(
         report["interreflection_pixels"].as_u64().unwrap() > 100,
         "{report}"
     );
     assert!(share(0) >= 0.99, "BFSM {}", share(0));
     assert!(share(2) < 0.5, "PS {}", share(2));
+    // The fast decoder (local maxima of the magnitude) at this camera size: a pixel sees about
+    // 6 projector columns, whose magnitude peak splits at the light's edges, so it fails where
+    // CLEAN does not (at 320 x 240, 2.4 columns per pixel, it finds 90% of these pixels; see
+    // core/tests/local_maxima.rs). The report says so rather than hiding it.
+    assert!(
+        share(3) < share(1),
+        "EFSM-fast {} vs EFSM {}",
+        share(3),
+        share(1)
+    );
     assert!(
         e_d(2) > 10.0 * e_d(0),
         "Ed: PS {} vs BFSM {}",
