@@ -6,12 +6,14 @@
 //! the noise, one pass for the maxima, then a 3-point estimate per peak. What it gives up:
 //! a peak's sidelobes are not removed, so the rectangular window's (−13 dB) pass a relative floor
 //! of a few percent and are reported as light (use the Hann window, −31 dB); two lights closer
-//! than the main lobe (four bins with Hann) show as one maximum; and a weak light on the flank of
-//! a strong one is measured with the strong one's slope under it.
+//! than the main lobe (four resolution steps with Hann) show as one maximum; a weak light on the
+//! flank of a strong one is measured with the strong one's slope under it; and a light wider than
+//! about 3 columns, whose neighbouring columns' kernels differ in phase by a quarter turn, shows
+//! its two edges as maxima (the magnitude cancels in its middle), where CLEAN fits the complex
+//! spectrum and finds its centre.
 //!
-//! The bin noise RMS is `sqrt(median |X_k|² / ln 2)` over the spectrum's independent bins,
-//! lights included: a light occupies a few of them, which moves the median by little (CLEAN
-//! measures it after removing the lights instead).
+//! The bin noise RMS is `sqrt(median |X_k|² / ln 2)` over nearly independent bins beside the
+//! strongest light (CLEAN measures it after removing the lights instead).
 
 use heapless::Vec;
 

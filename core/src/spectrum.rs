@@ -84,8 +84,8 @@ pub(crate) struct SampleStats {
 /// `window` holds `h_m` (empty for the rectangular window) and `inverse_window_sum` is
 /// `1/Σh`; the scaling is applied to the samples, before the (linear) transform, where it costs
 /// `M` products instead of `N + 2`. The mean is computed exactly in integers so that no sample
-/// /// order or platform can change it. `frames` must hold `(M − 1)·stride + 1` samples (missing
-/// ones count as 0; a checked row has them all).
+/// order or platform can change it. `frames` must hold `(M − 1)·stride + 1` samples (with fewer,
+/// every sample counts as 0; a checked row has them all).
 pub(crate) fn compute(
     plan: &ScanPlan,
     frames: &[u16],
