@@ -7,7 +7,7 @@
 
 use std::fmt;
 use std::fs::File;
-use std::io::{BufReader, Seek, Write};
+use std::io::{BufRead, BufReader, Cursor, Seek, Write};
 use std::ops::Range;
 use std::path::Path;
 
@@ -47,6 +47,11 @@ pub struct ImageInfo {
     pub container_bits: u8,
 }
 
+/// Most pixels an image may have (2^27, 256 MiB of 16-bit samples): a header claiming more is
+/// refused before anything is allocated for it, so a small file cannot make a reader exhaust
+/// memory.
+pub const MAX_PIXELS: u64 = 1 << 27;
+
 /// Why an image could not be read or written (the caller adds the file name).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ImageError(pub String);
@@ -74,13 +79,18 @@ fn format_of(path: &Path) -> Result<ImageFormat, ImageError> {
 
 /// Reads the size and depth of a grey image without decoding its pixels.
 pub fn probe(path: &Path) -> Result<ImageInfo, ImageError> {
-    match format_of(path)? {
+    let format = format_of(path)?;
+    probe_from(open(path)?, format)
+}
+
+fn probe_from(input: impl BufRead + Seek, format: ImageFormat) -> Result<ImageInfo, ImageError> {
+    match format {
         ImageFormat::Png => {
-            let reader = png_reader(path)?;
+            let reader = png_reader(input)?;
             png_info(reader.info())
         }
         ImageFormat::Tiff => {
-            let mut decoder = tiff_decoder(path)?;
+            let mut decoder = tiff_decoder(input)?;
             tiff_info(&mut decoder)
         }
     }
@@ -92,14 +102,31 @@ pub fn read_rows(
     path: &Path,
     expected: &ImageInfo,
     rows: Range<u32>,
-    mut row: impl FnMut(u32, &[u16]) -> Result<(), ImageError>,
+    row: impl FnMut(u32, &[u16]) -> Result<(), ImageError>,
 ) -> Result<(), ImageError> {
+    check_rows(expected, &rows)?;
+    let format = format_of(path)?;
+    read_rows_from(open(path)?, format, expected, rows, row)
+}
+
+fn check_rows(expected: &ImageInfo, rows: &Range<u32>) -> Result<(), ImageError> {
     if rows.end > expected.height || rows.start > rows.end {
         return Err(err(format!(
             "rows {}..{} are outside the image height {}",
             rows.start, rows.end, expected.height
         )));
     }
+    Ok(())
+}
+
+fn read_rows_from(
+    input: impl BufRead + Seek,
+    format: ImageFormat,
+    expected: &ImageInfo,
+    rows: Range<u32>,
+    mut row: impl FnMut(u32, &[u16]) -> Result<(), ImageError>,
+) -> Result<(), ImageError> {
+    check_rows(expected, &rows)?;
     let check = |info: ImageInfo| {
         if info != *expected {
             Err(err(format!(
@@ -115,10 +142,11 @@ pub fn read_rows(
             Ok(())
         }
     };
+    check_size(expected)?;
     let mut samples = vec![0u16; expected.width as usize];
-    match format_of(path)? {
+    match format {
         ImageFormat::Png => {
-            let mut reader = png_reader(path)?;
+            let mut reader = png_reader(input)?;
             check(png_info(reader.info())?)?;
             let sixteen = expected.container_bits == 16;
             if reader.info().interlaced {
@@ -151,7 +179,7 @@ pub fn read_rows(
             Ok(())
         }
         ImageFormat::Tiff => {
-            let mut decoder = tiff_decoder(path)?;
+            let mut decoder = tiff_decoder(input)?;
             check(tiff_info(&mut decoder)?)?;
             let w = expected.width as usize;
             let (chunk_w, rows_per_strip) = decoder.chunk_dimensions();
@@ -188,11 +216,30 @@ pub fn read_rows(
     }
 }
 
-/// Decodes a whole grey image: its info and its samples, row-major.
+/// Decodes a whole grey image file: its info and its samples, row-major.
 pub fn read_image(path: &Path) -> Result<(ImageInfo, Vec<u16>), ImageError> {
-    let info = probe(path)?;
-    let mut data = Vec::with_capacity(info.width as usize * info.height as usize);
-    read_rows(path, &info, 0..info.height, |_, samples| {
+    let format = format_of(path)?;
+    read_image_with(format, || open(path))
+}
+
+/// Decodes a whole grey image held in memory (the bytes of a `format` file): its info and its
+/// samples, row-major. [`read_image`] reads a file the same way.
+pub fn read_image_bytes(
+    bytes: &[u8],
+    format: ImageFormat,
+) -> Result<(ImageInfo, Vec<u16>), ImageError> {
+    read_image_with(format, || Ok(Cursor::new(bytes)))
+}
+
+/// Probes, then decodes every row: `open` gives the input once for each pass.
+fn read_image_with<R: BufRead + Seek>(
+    format: ImageFormat,
+    open: impl Fn() -> Result<R, ImageError>,
+) -> Result<(ImageInfo, Vec<u16>), ImageError> {
+    let info = probe_from(open()?, format)?;
+    // Grown with the rows that arrive, not reserved for the size the header claims.
+    let mut data = Vec::new();
+    read_rows_from(open()?, format, &info, 0..info.height, |_, samples| {
         data.extend_from_slice(samples);
         Ok(())
     })?;
@@ -211,10 +258,22 @@ fn unpack(line: &[u8], sixteen: bool, out: &mut [u16]) {
     }
 }
 
-fn png_reader(path: &Path) -> Result<png::Reader<BufReader<File>>, ImageError> {
-    let mut decoder = png::Decoder::new(open(path)?);
+fn png_reader<R: BufRead + Seek>(input: R) -> Result<png::Reader<R>, ImageError> {
+    let mut decoder = png::Decoder::new(input);
     decoder.set_transformations(png::Transformations::IDENTITY);
     decoder.read_info().map_err(err)
+}
+
+/// Refuses an image of more than [`MAX_PIXELS`] pixels.
+fn check_size(info: &ImageInfo) -> Result<(), ImageError> {
+    let pixels = info.width as u64 * info.height as u64;
+    if pixels > MAX_PIXELS {
+        return Err(err(format!(
+            "is {}x{} ({pixels} pixels): more than the {MAX_PIXELS} pixels an image may have",
+            info.width, info.height
+        )));
+    }
+    Ok(())
 }
 
 fn png_info(info: &png::Info<'_>) -> Result<ImageInfo, ImageError> {
@@ -234,19 +293,21 @@ fn png_info(info: &png::Info<'_>) -> Result<ImageInfo, ImageError> {
             )))
         }
     };
-    Ok(ImageInfo {
+    let info = ImageInfo {
         width: info.width,
         height: info.height,
         container_bits,
-    })
+    };
+    check_size(&info)?;
+    Ok(info)
 }
 
-fn tiff_decoder(path: &Path) -> Result<tiff::decoder::Decoder<BufReader<File>>, ImageError> {
-    tiff::decoder::Decoder::new(open(path)?).map_err(err)
+fn tiff_decoder<R: BufRead + Seek>(input: R) -> Result<tiff::decoder::Decoder<R>, ImageError> {
+    tiff::decoder::Decoder::new(input).map_err(err)
 }
 
-fn tiff_info(
-    decoder: &mut tiff::decoder::Decoder<BufReader<File>>,
+fn tiff_info<R: BufRead + Seek>(
+    decoder: &mut tiff::decoder::Decoder<R>,
 ) -> Result<ImageInfo, ImageError> {
     let (width, height) = decoder.dimensions().map_err(err)?;
     let container_bits = match decoder.colortype().map_err(err)? {
@@ -258,11 +319,13 @@ fn tiff_info(
             )))
         }
     };
-    Ok(ImageInfo {
+    let info = ImageInfo {
         width,
         height,
         container_bits,
-    })
+    };
+    check_size(&info)?;
+    Ok(info)
 }
 
 fn tiff_samples(
@@ -386,12 +449,36 @@ pub fn write_tiff_f32(
         .map_err(err)
 }
 
-/// Reads a 32-bit float grey TIFF (column maps).
+/// Reads a 32-bit float grey TIFF file (column maps): width, height, samples row-major.
 pub fn read_tiff_f32(path: &Path) -> Result<(u32, u32, Vec<f32>), ImageError> {
-    let mut decoder = tiff_decoder(path)?;
+    tiff_f32_from(open(path)?)
+}
+
+/// Decodes a 32-bit float grey TIFF held in memory, as [`read_tiff_f32`] does a file.
+pub fn read_tiff_f32_bytes(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), ImageError> {
+    tiff_f32_from(Cursor::new(bytes))
+}
+
+fn tiff_f32_from(input: impl BufRead + Seek) -> Result<(u32, u32, Vec<f32>), ImageError> {
+    let mut decoder = tiff_decoder(input)?;
     let (w, h) = decoder.dimensions().map_err(err)?;
+    // One sample per pixel: a multi-channel float TIFF decodes to more than `w·h` samples.
+    match decoder.colortype().map_err(err)? {
+        tiff::ColorType::Gray(32) => {}
+        c => {
+            return Err(err(format!(
+                "is a {c:?} TIFF; a column map is a single-channel 32-bit float image"
+            )))
+        }
+    }
     match decoder.read_image().map_err(err)? {
-        tiff::decoder::DecodingResult::F32(v) => Ok((w, h, v)),
+        tiff::decoder::DecodingResult::F32(v) if v.len() as u64 == w as u64 * h as u64 => {
+            Ok((w, h, v))
+        }
+        tiff::decoder::DecodingResult::F32(v) => Err(err(format!(
+            "{w}x{h} TIFF holds {} samples, not one per pixel",
+            v.len()
+        ))),
         _ => Err(err("not a 32-bit float TIFF")),
     }
 }
@@ -399,6 +486,89 @@ pub fn read_tiff_f32(path: &Path) -> Result<(u32, u32, Vec<f32>), ImageError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A PNG of `width × height` 8-bit grey whose data is a few bytes of zlib.
+    fn png_claiming(width: u32, height: u32) -> Vec<u8> {
+        let chunk = |out: &mut Vec<u8>, kind: &[u8], data: &[u8]| {
+            out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+            let start = out.len();
+            out.extend_from_slice(kind);
+            out.extend_from_slice(data);
+            let crc = fsm_core::wire::crc32(&out[start..]);
+            out.extend_from_slice(&crc.to_be_bytes());
+        };
+        let mut ihdr = Vec::new();
+        ihdr.extend_from_slice(&width.to_be_bytes());
+        ihdr.extend_from_slice(&height.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 0, 0, 0, 0]);
+        let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+        chunk(&mut out, b"IHDR", &ihdr);
+        chunk(
+            &mut out,
+            b"IDAT",
+            &[0x78, 0x9c, 0x63, 0x60, 0, 0, 0, 2, 0, 1],
+        );
+        chunk(&mut out, b"IEND", &[]);
+        out
+    }
+
+    /// A little-endian TIFF of `width × height` 32-bit floats, `samples_per_pixel` per pixel,
+    /// one strip.
+    fn float_tiff(width: u32, height: u32, samples_per_pixel: u16, data: &[f32]) -> Vec<u8> {
+        let tags: [(u16, u16, u32); 10] = [
+            (256, 4, width),
+            (257, 4, height),
+            (258, 3, 32),
+            (259, 3, 1),
+            (262, 3, 1),
+            (273, 4, 8 + 2 + 10 * 12 + 4),
+            (277, 3, samples_per_pixel as u32),
+            (278, 4, height),
+            (279, 4, data.len() as u32 * 4),
+            (339, 3, 3),
+        ];
+        let mut out = b"II*\0".to_vec();
+        out.extend_from_slice(&8u32.to_le_bytes());
+        out.extend_from_slice(&(tags.len() as u16).to_le_bytes());
+        for (tag, kind, value) in tags {
+            out.extend_from_slice(&tag.to_le_bytes());
+            out.extend_from_slice(&kind.to_le_bytes());
+            out.extend_from_slice(&1u32.to_le_bytes());
+            out.extend_from_slice(&value.to_le_bytes());
+        }
+        out.extend_from_slice(&0u32.to_le_bytes());
+        data.iter()
+            .for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+        out
+    }
+
+    #[test]
+    fn a_column_map_has_one_sample_per_pixel() {
+        let data: Vec<f32> = (0..6).map(|i| i as f32 + 0.5).collect();
+        assert_eq!(
+            read_tiff_f32_bytes(&float_tiff(3, 2, 1, &data)).unwrap(),
+            (3, 2, data)
+        );
+        // Found by host/fuzz (tiff_f32): 11 samples per pixel decoded to 66 samples for a 3x2
+        // map, which callers index as 6.
+        let e = read_tiff_f32_bytes(&float_tiff(3, 2, 11, &[0.0; 66])).unwrap_err();
+        assert!(e.0.contains("single-channel 32-bit float"), "{e}");
+    }
+
+    #[test]
+    fn a_header_claiming_a_huge_image_is_refused_before_allocating() {
+        // Found by host/fuzz (image): a 81-byte PNG claiming 3 x 1006632962 pixels made
+        // read_image reserve 6 GB for its samples.
+        let bytes = png_claiming(3, 1_006_632_962);
+        let e = read_image_bytes(&bytes, ImageFormat::Png).unwrap_err();
+        assert!(
+            e.0.contains("3x1006632962") && e.0.contains("pixels"),
+            "{e}"
+        );
+        // At the limit the header is accepted, and the missing data is the error.
+        let e = read_image_bytes(&png_claiming(1 << 14, 1 << 13), ImageFormat::Png).unwrap_err();
+        assert!(!e.0.contains("pixels an image may have"), "{e}");
+    }
 
     #[test]
     fn bands_of_every_format_read_back() {

@@ -123,11 +123,27 @@ impl ProjectorResponse {
             }
         }
         let (lo, hi) = (output[0], output[output.len() - 1]);
-        let points = input
+        if !(hi - lo).is_finite() {
+            return Err(format!(
+                "field output: the range {lo} to {hi} is too wide (its span is not a finite number)"
+            ));
+        }
+        let points: Vec<(f64, f64)> = input
             .iter()
             .zip(output)
             .map(|(&c, &l)| (c, (l - lo) / (hi - lo)))
             .collect();
+        // Normalising rounds: entries far closer together than the range may become equal.
+        for (i, w) in points.windows(2).enumerate() {
+            if w[1].1 <= w[0].1 {
+                return Err(format!(
+                    "field output: entries {i} = {} and {} = {} are too close together to tell apart once normalised to 0..1",
+                    output[i],
+                    i + 1,
+                    output[i + 1]
+                ));
+            }
+        }
         Ok(ProjectorResponse::Table(points))
     }
 
@@ -278,19 +294,23 @@ impl GreyLevelManifest {
     /// Reads and checks a manifest written by [`write_grey_level_set`].
     pub fn read(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).at(path)?;
-        let invalid = |message: String| Error::ProjectorResponse {
+        Self::parse(&text).map_err(|message| Error::ProjectorResponse {
             path: path.to_path_buf(),
             message,
-        };
-        let m: GreyLevelManifest = serde_json::from_str(&text)
-            .map_err(|e| invalid(format!("not a grey-level manifest: {e}")))?;
+        })
+    }
+
+    /// Parses and checks the text of a manifest (JSON); the error names the field.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let m: GreyLevelManifest =
+            serde_json::from_str(text).map_err(|e| format!("not a grey-level manifest: {e}"))?;
         if m.kind != GREY_LEVELS_KIND || m.format_version != GREY_LEVELS_VERSION {
-            return Err(invalid(format!(
+            return Err(format!(
                 "kind {:?} version {}: expected kind {GREY_LEVELS_KIND:?} version {GREY_LEVELS_VERSION}",
                 m.kind, m.format_version
-            )));
+            ));
         }
-        check_fractions(&m.fractions()).map_err(invalid)?;
+        check_fractions(&m.fractions())?;
         Ok(m)
     }
 
@@ -911,6 +931,29 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_table_that_cannot_be_normalised_is_refused() {
+        // The span of output overflowed: the last normalised entry was NaN, so code_for gave
+        // NaN and the written file ("NaN") did not parse back.
+        let e = ProjectorResponse::parse(
+            "format_version = 1\ninput = [0.0, 1.0]\noutput = [-1e308, 1e308]",
+        )
+        .unwrap_err();
+        assert!(e.starts_with("field output: the range"), "{e}");
+        // 0.5 and 0.7 above -1e16 round to the same normalised light: a flat step that
+        // code_for divides by.
+        let e = ProjectorResponse::parse(
+            "format_version = 1\ninput = [0.0, 0.3, 0.6, 1.0]\noutput = [-1e16, 0.5, 0.7, 1.0]",
+        )
+        .unwrap_err();
+        assert!(
+            e.starts_with("field output: entries 1 = 0.5 and 2 = 0.7"),
+            "{e}"
+        );
+        // A calibration file's [projector_response] table goes through from_table too.
+        assert!(ProjectorResponse::from_table(&[0.0, 1.0], &[-1e308, 1e308]).is_err());
     }
 
     #[test]

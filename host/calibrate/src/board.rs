@@ -198,14 +198,20 @@ impl Checkerboard {
             source: source.clone(),
             kind: BoardErrorKind::Io(e),
         })?;
-        let text = std::str::from_utf8(&bytes).map_err(|e| BoardError {
-            source: source.clone(),
+        Checkerboard::from_bytes(&bytes, &source)
+    }
+
+    /// Parses and validates the bytes of a target definition (UTF-8 TOML), as [`Self::read`]
+    /// does a file's; `source` names it in errors.
+    pub fn from_bytes(bytes: &[u8], source: &str) -> Result<Checkerboard, BoardError> {
+        let text = std::str::from_utf8(bytes).map_err(|e| BoardError {
+            source: source.to_string(),
             kind: BoardErrorKind::Syntax(format!(
                 "not UTF-8 text (invalid byte at offset {})",
                 e.valid_up_to()
             )),
         })?;
-        Checkerboard::from_toml(text, &source)
+        Checkerboard::from_toml(text, source)
     }
 
     /// Parses and validates the text of a target definition; `source` names it in errors.

@@ -547,14 +547,20 @@ impl CalibrationFile {
             source: source.clone(),
             kind: CalibrationFileErrorKind::Io(e),
         })?;
-        let text = std::str::from_utf8(&bytes).map_err(|e| CalibrationFileError {
-            source: source.clone(),
+        CalibrationFile::from_bytes(&bytes, &source)
+    }
+
+    /// Parses and validates the bytes of a calibration file (UTF-8 TOML), as [`Self::read`]
+    /// does a file's; `source` names it in errors.
+    pub fn from_bytes(bytes: &[u8], source: &str) -> Result<CalibrationFile, CalibrationFileError> {
+        let text = std::str::from_utf8(bytes).map_err(|e| CalibrationFileError {
+            source: source.to_string(),
             kind: CalibrationFileErrorKind::Syntax(format!(
                 "not UTF-8 text (invalid byte at offset {})",
                 e.valid_up_to()
             )),
         })?;
-        CalibrationFile::from_toml(text, &source)
+        CalibrationFile::from_toml(text, source)
     }
 
     /// Writes the file whole or not at all: a temporary file in the same folder, flushed to

@@ -2226,8 +2226,19 @@ pub fn read(path: &Path, tool: Tool, options: &ImportOptions) -> Result<Imported
         source: source.clone(),
         kind: OpenCvErrorKind::Io(e),
     })?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| OpenCvError {
-        source: source.clone(),
+    from_bytes(&bytes, &source, tool, options)
+}
+
+/// Parses and imports the bytes of `tool`'s file (UTF-8 text, YAML or XML), as [`read`] does
+/// a file's; `source` names it in errors.
+pub fn from_bytes(
+    bytes: &[u8],
+    source: &str,
+    tool: Tool,
+    options: &ImportOptions,
+) -> Result<Imported, OpenCvError> {
+    let text = std::str::from_utf8(bytes).map_err(|e| OpenCvError {
+        source: source.to_string(),
         kind: OpenCvErrorKind::Syntax {
             line: bytes[..e.valid_up_to()]
                 .iter()
@@ -2240,5 +2251,5 @@ pub fn read(path: &Path, tool: Tool, options: &ImportOptions) -> Result<Imported
             ),
         },
     })?;
-    from_text(text, &source, tool, options)
+    from_text(text, source, tool, options)
 }
