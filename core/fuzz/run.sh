@@ -13,11 +13,19 @@ else
     export RUSTC_BOOTSTRAP=1
     fuzz=(cargo fuzz)
 fi
+# Built first, so that a target that does not compile fails here rather than in a filtered log.
+"${fuzz[@]}" build
 for target in $("${fuzz[@]}" list); do
     echo "== fuzz $target for ${seconds}s"
-    "${fuzz[@]}" run "$target" -- -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" 2>&1 | grep -E '^Done|panicked|ERROR|SUMMARY' || true
+    status=0
+    "${fuzz[@]}" run "$target" -- -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" 2>&1 |
+        { grep -E '^Done|panicked|ERROR|SUMMARY' || true; } || status=$?
     if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
         echo "fuzz $target found a crash: core/fuzz/artifacts/$target" >&2
+        exit 1
+    fi
+    if [ "$status" -ne 0 ]; then
+        echo "fuzz $target failed (exit status $status)" >&2
         exit 1
     fi
 done
