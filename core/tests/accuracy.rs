@@ -3,30 +3,8 @@
 
 mod support;
 
-use fsm_core::{GroupCount, GroupSet, PixelCandidates, PixelFlags, ScanPlan};
-use support::{Harness, Noise, Pixel};
-
-fn decode_all<const K: usize>(
-    plan: ScanPlan,
-    pixels: &[Pixel],
-    seed: u64,
-) -> Vec<PixelCandidates<K>> {
-    let mut h = Harness::new(plan);
-    let mut noise = Noise::new(seed);
-    let samples: Vec<Vec<u16>> = pixels
-        .iter()
-        .map(|p| p.samples(&plan, 1.0, 12, &mut noise))
-        .collect();
-    h.decode::<K>(&samples, 12)
-}
-
-/// Error of the candidate nearest to `truth`, or infinity without candidates.
-fn nearest_error<const K: usize>(p: &PixelCandidates<K>, truth: f64) -> f64 {
-    p.candidates
-        .iter()
-        .map(|c| (c.column as f64 - truth).abs())
-        .fold(f64::INFINITY, f64::min)
-}
+use fsm_core::{GroupCount, GroupSet, PixelFlags, ScanPlan};
+use support::{decode_all, nearest_error, Harness, Noise, Pixel};
 
 #[test]
 fn bfsm_recovers_every_column_with_one_candidate() {

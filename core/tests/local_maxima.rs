@@ -9,32 +9,11 @@ mod support;
 use fsm_core::{
     DecodeSettings, GroupCount, PeakEstimator, PeakSearch, PixelCandidates, ScanPlan, Window,
 };
-use support::{Harness, Noise, Pixel};
+use support::{decode_all, nearest_error, Pixel};
 
 fn fast(mut plan: ScanPlan) -> ScanPlan {
     plan.decoding = DecodeSettings::local_maxima();
     plan
-}
-
-fn decode_all<const K: usize>(
-    plan: ScanPlan,
-    pixels: &[Pixel],
-    seed: u64,
-) -> Vec<PixelCandidates<K>> {
-    let mut h = Harness::new(plan);
-    let mut noise = Noise::new(seed);
-    let samples: Vec<Vec<u16>> = pixels
-        .iter()
-        .map(|p| p.samples(&plan, 1.0, 12, &mut noise))
-        .collect();
-    h.decode::<K>(&samples, 12)
-}
-
-fn nearest_error<const K: usize>(p: &PixelCandidates<K>, truth: f64) -> f64 {
-    p.candidates
-        .iter()
-        .map(|c| (c.column as f64 - truth).abs())
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// RMS and worst error of the nearest candidate over blurred spots at fractional columns, and

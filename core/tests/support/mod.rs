@@ -205,3 +205,26 @@ impl Harness {
             .expect("row decodes")
     }
 }
+
+/// Decodes one row of `pixels` with `plan`: 12-bit samples, 1 DN read noise from `seed`.
+pub fn decode_all<const K: usize>(
+    plan: ScanPlan,
+    pixels: &[Pixel],
+    seed: u64,
+) -> Vec<PixelCandidates<K>> {
+    let mut h = Harness::new(plan);
+    let mut noise = Noise::new(seed);
+    let samples: Vec<Vec<u16>> = pixels
+        .iter()
+        .map(|p| p.samples(&plan, 1.0, 12, &mut noise))
+        .collect();
+    h.decode::<K>(&samples, 12)
+}
+
+/// Error of the candidate nearest to `truth`, or infinity without candidates.
+pub fn nearest_error<const K: usize>(p: &PixelCandidates<K>, truth: f64) -> f64 {
+    p.candidates
+        .iter()
+        .map(|c| (c.column as f64 - truth).abs())
+        .fold(f64::INFINITY, f64::min)
+}
