@@ -157,9 +157,9 @@ pub enum PeakEstimator {
 /// indirect light two resolution steps apart and reports no sidelobe, at about 10× the cost.
 /// [`PeakSearch::LocalMaxima`] is the paper's detector, for a camera that must keep up with the
 /// frame rate, where each camera pixel sees at most about 3 projector columns (a wider light's
-/// magnitude peaks at its two edges: `tests/local_maxima.rs`); use it with the Hann window ([`DecodeSettings::local_maxima`]), whose sidelobes
-/// (−31 dB) stay under a relative floor of a few percent, where the rectangular window's (−13 dB)
-/// would be reported as light.
+/// magnitude peaks at its two edges: `tests/local_maxima.rs`). Use it with the Hann window
+/// ([`DecodeSettings::local_maxima`]), whose sidelobes (−31 dB) stay under a relative floor of a
+/// few percent, where the rectangular window's (−13 dB) would be reported as light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -362,7 +362,8 @@ impl fmt::Display for PlanError {
             }
             PlanError::LocalMaximaTooFewFringes { count, min } => write!(
                 f,
-                "band.count = {count}: decoding.search = LocalMaxima needs at least {min}                  fringes to measure the noise beside a light (use Clean)"
+                "band.count = {count}: decoding.search = LocalMaxima needs at least {min} \
+                 fringes to measure the noise beside a light (use Clean)"
             ),
         }
     }
