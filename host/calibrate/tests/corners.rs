@@ -70,9 +70,15 @@ struct Measured {
     max: f64,
 }
 
-/// Renders the board at `pose` (noise-free signal with `sensor = None`), detects its corners and
-/// compares them with the true projections.
-fn measure(system: &System, spec: &PoseSpec, sensor: Option<&Sensor>, seed: u64) -> Measured {
+/// Renders the board at `spec` with `supersampling` rays per pixel side (noise-free signal with
+/// `sensor = None`) and detects its corners: the true projections and the detected corners.
+fn render_and_detect(
+    system: &System,
+    spec: &PoseSpec,
+    sensor: Option<&Sensor>,
+    seed: u64,
+    supersampling: u32,
+) -> (Vec<Point2<f64>>, Vec<Point2<f64>>) {
     let sim_board = target::Checkerboard::bench();
     let (name, centre, yaw, pitch, roll) = *spec;
     let pose = BoardPose::tilted(&sim_board, centre, yaw, pitch, roll);
@@ -80,6 +86,24 @@ fn measure(system: &System, spec: &PoseSpec, sensor: Option<&Sensor>, seed: u64)
         .into_iter()
         .map(|p| p.expect("every corner projects"))
         .collect();
+    let scene = Scene::checkerboard(&sim_board, &pose);
+    let image = target::white_frame(&scene, system, sensor, seed, supersampling).unwrap();
+    let found = detect(
+        &image,
+        system.width() as usize,
+        system.height() as usize,
+        &board_of(&sim_board),
+    )
+    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_eq!(found.len(), truth.len());
+    (truth, found)
+}
+
+/// Renders the board at `pose` (noise-free signal with `sensor = None`), detects its corners and
+/// compares them with the true projections.
+fn measure(system: &System, spec: &PoseSpec, sensor: Option<&Sensor>, seed: u64) -> Measured {
+    let name = spec.0;
+    let (truth, found) = render_and_detect(system, spec, sensor, seed, SUPERSAMPLING);
     let cam = &system.calibration.camera;
     for p in &truth {
         assert!(
@@ -90,16 +114,6 @@ fn measure(system: &System, spec: &PoseSpec, sensor: Option<&Sensor>, seed: u64)
             "{name}: test pose puts corner {p:?} off the image"
         );
     }
-    let scene = Scene::checkerboard(&sim_board, &pose);
-    let image = target::white_frame(&scene, system, sensor, seed, SUPERSAMPLING).unwrap();
-    let found = detect(
-        &image,
-        system.width() as usize,
-        system.height() as usize,
-        &board_of(&sim_board),
-    )
-    .unwrap_or_else(|e| panic!("{name}: {e}"));
-    assert_eq!(found.len(), truth.len());
     let errors: Vec<f64> = found
         .iter()
         .zip(&truth)
@@ -539,22 +553,8 @@ fn structure(
     seed: u64,
     supersampling: u32,
 ) -> Structure {
-    let sim_board = target::Checkerboard::bench();
-    let (name, centre, yaw, pitch, roll) = *spec;
-    let pose = BoardPose::tilted(&sim_board, centre, yaw, pitch, roll);
-    let truth: Vec<Point2<f64>> = target::true_corner_pixels(system, &sim_board, &pose)
-        .into_iter()
-        .map(|p| p.expect("every corner projects"))
-        .collect();
-    let scene = Scene::checkerboard(&sim_board, &pose);
-    let image = target::white_frame(&scene, system, sensor, seed, supersampling).unwrap();
-    let found = detect(
-        &image,
-        system.width() as usize,
-        system.height() as usize,
-        &board_of(&sim_board),
-    )
-    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let name = spec.0;
+    let (truth, found) = render_and_detect(system, spec, sensor, seed, supersampling);
     let ex: Vec<f64> = found.iter().zip(&truth).map(|(a, b)| a.x - b.x).collect();
     let ey: Vec<f64> = found.iter().zip(&truth).map(|(a, b)| a.y - b.y).collect();
     let n = ex.len() as f64;
