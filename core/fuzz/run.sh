@@ -1,11 +1,17 @@
 #!/usr/bin/env bash
-# Runs every fuzz target of fsm-core for the given number of seconds each (default 20).
-# Uses the nightly toolchain when present, otherwise the stable one with RUSTC_BOOTSTRAP (the
-# fuzzing flags are unstable), and installs cargo-fuzz if it is missing. The seed is fixed (FUZZ_SEED,
-# default 1) so a CI run can be replayed; set it to 0 for libFuzzer's own random seed.
+# Runs every fuzz target of a cargo-fuzz crate for the given number of seconds each (default 20):
+# fsm-core's (this folder) unless another crate's folder is given (host/fuzz/run.sh passes its
+# own). New inputs go to corpus/<target>/; checked-in seeds/<target>/ start the run where the
+# crate has them. Uses the nightly toolchain when present, otherwise the stable one with
+# RUSTC_BOOTSTRAP (the fuzzing flags are unstable), and installs cargo-fuzz if it is missing. The
+# seed is fixed (FUZZ_SEED, default 1) so a CI run can be replayed; set it to 0 for libFuzzer's
+# own random seed. Fails on the first target that does not build, exits non-zero or leaves a
+# crash in artifacts/.
+# Usage: core/fuzz/run.sh [seconds] [fuzz-crate-dir]
 set -euo pipefail
-cd "$(dirname "$0")"
 seconds=${1:-20}
+cd "${2:-$(dirname "$0")}"
+where=$(basename "$(dirname "$PWD")")/$(basename "$PWD")
 command -v cargo-fuzz >/dev/null || cargo install --locked cargo-fuzz@0.13.2
 if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
     fuzz=(cargo +nightly fuzz)
@@ -17,11 +23,15 @@ fi
 "${fuzz[@]}" build
 for target in $("${fuzz[@]}" list); do
     echo "== fuzz $target for ${seconds}s"
+    mkdir -p "corpus/$target"
+    inputs=("corpus/$target")
+    [ -d "seeds/$target" ] && inputs+=("seeds/$target")
     status=0
-    "${fuzz[@]}" run "$target" -- -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" 2>&1 |
+    "${fuzz[@]}" run "$target" "${inputs[@]}" -- \
+        -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" 2>&1 |
         { grep -E '^Done|panicked|ERROR|SUMMARY' || true; } || status=$?
     if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
-        echo "fuzz $target found a crash: core/fuzz/artifacts/$target" >&2
+        echo "fuzz $target found a crash: $where/artifacts/$target" >&2
         exit 1
     fi
     if [ "$status" -ne 0 ]; then

@@ -1,36 +1,9 @@
 #!/usr/bin/env bash
 # Runs every fuzz target of the host's file parsers for the given number of seconds each
 # (default 20), starting from the checked-in seeds (seeds/<target>/: the repository's own
-# calibration, target, plan, response, image, dump and candidate files). New inputs go to
-# corpus/<target>/ (not checked in). Uses the nightly toolchain when present, otherwise the stable
-# one with RUSTC_BOOTSTRAP (the fuzzing flags are unstable), and installs cargo-fuzz if it is
-# missing. The seed is fixed (FUZZ_SEED, default 1) so a CI run can be replayed; set it to 0 for
-# libFuzzer's own random seed. Fails on the first target that leaves a crash in artifacts/.
+# calibration, target, plan, response, image, dump and candidate files); new inputs go to
+# corpus/<target>/ (not checked in). The runner is core/fuzz/run.sh (toolchain, FUZZ_SEED,
+# failure rules), given this folder.
 set -euo pipefail
-cd "$(dirname "$0")"
-seconds=${1:-20}
-command -v cargo-fuzz >/dev/null || cargo install --locked cargo-fuzz@0.13.2
-if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
-    fuzz=(cargo +nightly fuzz)
-else
-    export RUSTC_BOOTSTRAP=1
-    fuzz=(cargo fuzz)
-fi
-# Built first, so that a target that does not compile fails here rather than in a filtered log.
-"${fuzz[@]}" build
-for target in $("${fuzz[@]}" list); do
-    echo "== fuzz $target for ${seconds}s"
-    mkdir -p "corpus/$target"
-    status=0
-    "${fuzz[@]}" run "$target" "corpus/$target" "seeds/$target" -- \
-        -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" 2>&1 |
-        { grep -E '^Done|panicked|ERROR|SUMMARY' || true; } || status=$?
-    if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
-        echo "fuzz $target found a crash: host/fuzz/artifacts/$target" >&2
-        exit 1
-    fi
-    if [ "$status" -ne 0 ]; then
-        echo "fuzz $target failed (exit status $status)" >&2
-        exit 1
-    fi
-done
+here="$(cd "$(dirname "$0")" && pwd)"
+exec bash "$here/../../core/fuzz/run.sh" "${1:-20}" "$here"
