@@ -81,41 +81,44 @@ fi
 #     has built it already.)
 "$HOST_CARGO" build -q --manifest-path "$FW_DIR/../Cargo.toml" -p fsm-cli --bin fsm
 FSM="$TARGET_DIR/debug/fsm"
+
+# simulate PRESET DIR: plane_mirror at 48 x 32 pixels -> DIR/scan.dump and its wire plan DIR/plan.bin
+simulate() {
+    "$FSM" simulate --scene plane_mirror --preset "$1" --camera 48x32 --out "$2" >/dev/null \
+        && "$FSM" plan --check "$2/plan.toml" --wire "$2/plan.bin" >/dev/null 2>&1
+}
+
+# crosscheck_dumps READY NAME WHAT BFSM_DUMP BFSM_PLAN EFSM2_DUMP EFSM2_PLAN: crosscheck-arm.sh on
+# these dumps (READY = 1 if they were made), its output in NAME.txt, reported as WHAT.
+crosscheck_dumps() {
+    if [ "$1" = 1 ] && FW_ELF="$ELF" FW_DUMP_BFSM="$4" FW_PLAN_BFSM="$5" \
+        FW_DUMP_EFSM2="$6" FW_PLAN_EFSM2="$7" "$S/crosscheck-arm.sh" >"$2.txt" 2>&1; then
+        grep -E '^(identical|ok)' "$2.txt"
+        ok "crosscheck-arm.sh $3: bit-identical"
+    else
+        cat "$2.txt" 2>/dev/null || true
+        bad "crosscheck-arm.sh $3"
+    fi
+}
+
 sim_ok=1
 for p in paper-bfsm paper-efsm-2; do
-    "$FSM" simulate --scene plane_mirror --preset "$p" --camera 48x32 --out "sim-$p" >/dev/null \
-        && "$FSM" plan --check "sim-$p/plan.toml" --wire "sim-$p/plan.bin" >/dev/null 2>&1 \
-        || sim_ok=0
+    simulate "$p" "sim-$p" || sim_ok=0
 done
-if [ "$sim_ok" = 1 ] && FW_ELF="$ELF" \
-    FW_DUMP_BFSM="$WORK/sim-paper-bfsm/scan.dump" FW_PLAN_BFSM="$WORK/sim-paper-bfsm/plan.bin" \
-    FW_DUMP_EFSM2="$WORK/sim-paper-efsm-2/scan.dump" FW_PLAN_EFSM2="$WORK/sim-paper-efsm-2/plan.bin" \
-    "$S/crosscheck-arm.sh" >crosscheck-sim.txt 2>&1; then
-    grep -E '^(identical|ok)' crosscheck-sim.txt
-    ok "crosscheck-arm.sh on fsm simulate plane_mirror (paper BFSM and EFSM 2 groups, 32 rows x 48 pixels): bit-identical"
-else
-    cat crosscheck-sim.txt 2>/dev/null || true
-    bad "crosscheck-arm.sh on fsm simulate plane_mirror"
-fi
+crosscheck_dumps "$sim_ok" crosscheck-sim \
+    "on fsm simulate plane_mirror (paper BFSM and EFSM 2 groups, 32 rows x 48 pixels)" \
+    "$WORK/sim-paper-bfsm/scan.dump" "$WORK/sim-paper-bfsm/plan.bin" \
+    "$WORK/sim-paper-efsm-2/scan.dump" "$WORK/sim-paper-efsm-2/plan.bin"
 
 # 2c. The local-maximum search (`ScanPlan::with_local_maxima`, the camera's fast decoder): the
 #     firmware's mirror scene with BFSM, the simulator's plane_mirror with two-group EFSM.
 fast_ok=1
 "$TOOL" scene --plan bfsm-fast --width 48 --rows 32 --dump fast-bfsm.dump --plan-out fast-bfsm.plan \
     >/dev/null || fast_ok=0
-"$FSM" simulate --scene plane_mirror --preset paper-efsm-2-fast --camera 48x32 --out sim-fast >/dev/null \
-    && "$FSM" plan --check sim-fast/plan.toml --wire sim-fast/plan.bin >/dev/null 2>&1 \
-    || fast_ok=0
-if [ "$fast_ok" = 1 ] && FW_ELF="$ELF" \
-    FW_DUMP_BFSM="$WORK/fast-bfsm.dump" FW_PLAN_BFSM="$WORK/fast-bfsm.plan" \
-    FW_DUMP_EFSM2="$WORK/sim-fast/scan.dump" FW_PLAN_EFSM2="$WORK/sim-fast/plan.bin" \
-    "$S/crosscheck-arm.sh" >crosscheck-fast.txt 2>&1; then
-    grep -E '^(identical|ok)' crosscheck-fast.txt
-    ok "crosscheck-arm.sh with the local-maximum search (BFSM mirror scene, EFSM 2 groups plane_mirror, 32 rows x 48 pixels): bit-identical"
-else
-    cat crosscheck-fast.txt 2>/dev/null || true
-    bad "crosscheck-arm.sh with the local-maximum search"
-fi
+simulate paper-efsm-2-fast sim-fast || fast_ok=0
+crosscheck_dumps "$fast_ok" crosscheck-fast \
+    "with the local-maximum search (BFSM mirror scene, EFSM 2 groups plane_mirror, 32 rows x 48 pixels)" \
+    "$WORK/fast-bfsm.dump" "$WORK/fast-bfsm.plan" "$WORK/sim-fast/scan.dump" "$WORK/sim-fast/plan.bin"
 
 # 3. Bad input: a dump of another plan, a truncated dump. Refused with a message naming what is
 #    wrong, exit code 3, and no candidate file left behind.
