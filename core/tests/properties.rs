@@ -2,9 +2,9 @@
 
 mod support;
 
-use fsm_core::{BlockCoding, FringeBand, Group, GroupCount, Method, ScanPlan};
+use fsm_core::{BlockCoding, FringeBand, Group, GroupCount, Method, PixelCandidates, ScanPlan};
 use proptest::prelude::*;
-use support::{Harness, Noise, Pixel};
+use support::{nearest_error, Harness, Noise, Pixel};
 
 /// A random valid plan: BFSM or EFSM, full or narrowed band, with or without zero padding.
 fn plan_strategy() -> impl Strategy<Value = ScanPlan> {
@@ -82,16 +82,9 @@ proptest! {
         let centre = 3.0 + position * (cmax - 6.0);
         // One-group EFSM cannot see the border guard; skip spots whose light reaches it.
         if let (Some(c), 1) = (plan.block_coding(), plan.group_count()) {
-            let local = centre % c.block_width as f64;
-            let margin = local.min(c.block_width as f64 - local);
-            prop_assume!(margin > c.border_guard as f64 + 3.0 * sigma);
+            prop_assume!(block_margin(c, centre) > c.border_guard as f64 + 3.0 * sigma);
         }
-        let pixel = Pixel::spot(centre, sigma, amplitude);
-        let truth = pixel.centroid_near(centre);
-        let mut h = Harness::new(plan);
-        let samples = pixel.samples(&plan, noise_dn, 12, &mut Noise::new(seed));
-        let out = h.decode_one::<16>(samples, 12);
-        let error = out.candidates.iter().map(|c| (c.column as f64 - truth).abs()).fold(f64::INFINITY, f64::min);
+        let (truth, out, error) = decode_spot(plan, centre, sigma, amplitude, noise_dn, seed);
         // Full band: the fit is exact up to noise. A narrowed band (f_M < 1/2) cannot tell
         // neighbouring columns apart, and only the light's centroid is constrained.
         let tolerance = if band_fraction(&plan) > 0.99 { 0.05 } else { 0.15 };
@@ -151,17 +144,10 @@ proptest! {
         let centre = reach + position * (cmax - 2.0 * reach);
         prop_assume!(centre > reach && centre < cmax - reach);
         if let Some(c) = plan.block_coding() {
-            let local = centre % c.block_width as f64;
-            let margin = local.min(c.block_width as f64 - local);
             let needed = if plan.group_count() == 1 { c.border_guard as f64 } else { 0.0 };
-            prop_assume!(margin > needed + reach);
+            prop_assume!(block_margin(c, centre) > needed + reach);
         }
-        let pixel = Pixel::spot(centre, sigma, amplitude);
-        let truth = pixel.centroid_near(centre);
-        let mut h = Harness::new(plan);
-        let samples = pixel.samples(&plan, noise_dn, 12, &mut Noise::new(seed));
-        let out = h.decode_one::<16>(samples, 12);
-        let error = out.candidates.iter().map(|c| (c.column as f64 - truth).abs()).fold(f64::INFINITY, f64::min);
+        let (truth, out, error) = decode_spot(plan, centre, sigma, amplitude, noise_dn, seed);
         let tolerance = 0.15 * plan.column_resolution() as f64 + 0.1;
         prop_assert!(error < tolerance, "{plan:?} centre {centre} truth {truth}: error {error}, {:?}", out.candidates);
         prop_assert!(out.candidates.iter().all(|c| c.amplitude > 0.0 && c.column.is_finite()));
@@ -174,6 +160,31 @@ proptest! {
             prop_assert_eq!(plan.index_of(p), Some(i));
         }
     }
+}
+
+/// Distance of `column` from the nearer border of its EFSM block.
+fn block_margin(coding: BlockCoding, column: f64) -> f64 {
+    let local = column % coding.block_width as f64;
+    local.min(coding.block_width as f64 - local)
+}
+
+/// A defocused spot at `centre` decoded with `plan`: its true centroid, the pixel's candidates
+/// and the error of the candidate nearest the centroid.
+fn decode_spot(
+    plan: ScanPlan,
+    centre: f64,
+    sigma: f64,
+    amplitude: f64,
+    noise_dn: f64,
+    seed: u64,
+) -> (f64, PixelCandidates<16>, f64) {
+    let pixel = Pixel::spot(centre, sigma, amplitude);
+    let truth = pixel.centroid_near(centre);
+    let mut h = Harness::new(plan);
+    let samples = pixel.samples(&plan, noise_dn, 12, &mut Noise::new(seed));
+    let out = h.decode_one::<16>(samples, 12);
+    let error = nearest_error(&out, truth);
+    (truth, out, error)
 }
 
 /// Two lights of `plan` at `a` and `a + separation`, decoded in group 1: the peaks' columns.
