@@ -8,7 +8,11 @@
 //! 3. Projector: linear initialisation of the column planes, then Levenberg–Marquardt with
 //!    the corners' positions fixed ([`crate::projector`]).
 //! 4. Joint refinement (optional, default): camera, board poses and projector together, each
-//!    residual divided by its stage's RMS so pixels and columns weigh by their precision.
+//!    residual divided by its stage's RMS so pixels and columns weigh by their precision. With
+//!    [`CalibrationSettings::dense`] (default) and a checkerboard's corner list, the projector
+//!    residuals are the dense column samples of every light square ([`crate::dense`]) instead
+//!    of the corners' columns, in two passes (weights from the starting model's spread, then
+//!    from the first fit's; outliers dropped each time).
 
 use core::fmt;
 
@@ -17,6 +21,7 @@ use serde::Serialize;
 
 use fsm_geometry::{Calibration, Intrinsics, MeasurementVolume, ModelError, Pinhole};
 
+use crate::dense::{self, DenseSample, DenseSettings, Grid};
 use crate::homography::{local_column, LocalColumnSettings};
 use crate::projector::{
     calibrate_projector, column_residuals, model_from_params, model_params, projector_free_mask,
@@ -76,6 +81,10 @@ pub struct CalibrationSettings {
     pub joint: bool,
     /// Local column fits around the corners.
     pub local: LocalColumnSettings,
+    /// Dense column samples in the joint refinement ([`crate::dense`]); used by [`calibrate`],
+    /// which has the column maps, when the board points are a checkerboard's corner list in
+    /// its order (`Checkerboard::corners_mm`). `None` = the corners' columns only.
+    pub dense: Option<DenseSettings>,
 }
 
 impl CalibrationSettings {
@@ -97,6 +106,7 @@ impl CalibrationSettings {
             projector: ProjectorSettings::default(),
             joint: true,
             local: LocalColumnSettings::default(),
+            dense: Some(DenseSettings::default()),
         }
     }
 }
@@ -227,6 +237,10 @@ pub struct PoseReport {
     pub camera_residuals_px: Vec<[f64; 2]>,
     /// Projector residuals per corner, columns (`null` where the corner had no column).
     pub projector_residuals_columns: Vec<Option<f64>>,
+    /// Dense column samples of this pose used by the joint refinement ([`crate::dense`]).
+    pub dense_samples: usize,
+    /// Their RMS residual, columns (`null` without dense samples).
+    pub dense_rms_columns: Option<f64>,
 }
 
 /// Solver iterations per stage.
@@ -249,6 +263,8 @@ pub struct CalibrationReport {
     pub camera_rms_px: f64,
     /// Projector reprojection RMS over all poses, columns.
     pub projector_rms_columns: f64,
+    /// RMS residual of the dense column samples over all poses, columns (`null` without them).
+    pub dense_rms_columns: Option<f64>,
     /// Per pose.
     pub poses: Vec<PoseReport>,
     /// Camera parameters.
@@ -314,7 +330,8 @@ pub fn calibrate(
         let fit = columns[pose][corner].as_ref()?;
         Some(predicted.map_or(fit.column, |p| fit.at(p)))
     };
-    calibrate_inner(board_mm, &labels, &corners, &source, settings)
+    let maps: Vec<&ColumnMap> = poses.iter().map(|p| &p.columns).collect();
+    calibrate_inner(board_mm, &labels, &corners, &source, &maps, settings)
 }
 
 fn check_counts<'a>(
@@ -367,7 +384,7 @@ pub fn calibrate_from_columns(
         });
     }
     let source = |pose: usize, corner: usize, _: Option<Point2<f64>>| columns[pose][corner];
-    calibrate_inner(board_mm, labels, corners_px, &source, settings)
+    calibrate_inner(board_mm, labels, corners_px, &source, &[], settings)
 }
 
 /// Column of corner `corner` of pose `pose`, given where the calibrated camera puts it.
@@ -378,6 +395,7 @@ fn calibrate_inner(
     labels: &[String],
     corners_px: &[Vec<Point2<f64>>],
     source: &ColumnSource<'_>,
+    maps: &[&ColumnMap],
     settings: &CalibrationSettings,
 ) -> Result<(Calibration, CalibrationReport), CalibrateError> {
     let fallback: Vec<String>;
@@ -436,22 +454,61 @@ fn calibrate_inner(
     let mut joint_iterations = 0;
     let mut last_stop = proj.stop;
 
+    // Dense samples, located with the camera stage's model.
+    let grid = Grid::of(board_mm);
+    let mut samples: Vec<Vec<DenseSample>> = match (settings.dense, grid) {
+        (Some(ds), Some(grid)) if maps.len() == cam.poses.len() => maps
+            .iter()
+            .zip(&cam.poses)
+            .map(|(map, pose)| dense::select(map, &grid, &camera_k, &camera_d, pose, &ds))
+            .collect(),
+        _ => Vec::new(),
+    };
+
     // 4. Joint refinement.
     if settings.joint {
         let sigma_c = (cam.rms_total_px / std::f64::consts::SQRT_2).max(1e-6);
         let sigma_p = proj.rms_total_columns.max(1e-6);
-        let joint = refine_joint(
-            board_mm,
-            corners_px,
-            &columns,
-            (&camera_k, &camera_d, &board_poses, &model),
-            (sigma_c, sigma_p),
-            settings,
-        )
-        .map_err(|error| CalibrateError::Solver {
-            stage: "joint refinement",
-            error,
-        })?;
+        let outlier_sigmas = settings.dense.map_or(f64::INFINITY, |d| d.outlier_sigmas);
+        let mut start = (camera_k, camera_d, board_poses.clone(), model);
+        let mut joint: Option<JointFit> = None;
+        // With dense samples, two passes: the first weighs them by their spread about the
+        // starting model (mostly that model's error), the second by their spread about the
+        // first fit (their noise); each drops the samples beyond `outlier_sigmas`.
+        for _ in 0..if samples.is_empty() { 1 } else { 2 } {
+            if let Some(j) = &joint {
+                start = (j.camera, j.distortion, j.poses.clone(), j.model);
+            }
+            let sigma_d = if samples.is_empty() {
+                1.0
+            } else {
+                dense::weigh_and_prune(
+                    (&start.0, &start.1, &start.2, &start.3),
+                    &mut samples,
+                    outlier_sigmas,
+                )
+                .ok_or(CalibrateError::Solver {
+                    stage: "dense column residuals",
+                    error: LmError::InvalidStart,
+                })?
+            };
+            joint = Some(
+                refine_joint(
+                    board_mm,
+                    corners_px,
+                    &columns,
+                    (&start.0, &start.1, &start.2, &start.3),
+                    (sigma_c, sigma_p, sigma_d),
+                    &samples,
+                    settings,
+                )
+                .map_err(|error| CalibrateError::Solver {
+                    stage: "joint refinement",
+                    error,
+                })?,
+            );
+        }
+        let joint = joint.expect("at least one pass ran");
         camera_k = joint.camera;
         camera_d = joint.distortion;
         board_poses = joint.poses;
@@ -483,6 +540,21 @@ fn calibrate_inner(
         error: LmError::InvalidStart,
     })?;
     let (proj_res, proj_rms, proj_total) = unflatten(&flat_p, &columns);
+    let mut dense_flat = Vec::new();
+    if !samples.is_empty() {
+        dense::rays(&camera_k, &camera_d, &samples)
+            .and_then(|rays| {
+                dense::residuals(&rays, &board_poses, &model, &samples, &mut dense_flat)
+            })
+            .ok_or(CalibrateError::Solver {
+                stage: "final residuals",
+                error: LmError::InvalidStart,
+            })?;
+    }
+    let rms_of = |r: &[f64]| {
+        (!r.is_empty()).then(|| (r.iter().map(|e| e * e).sum::<f64>() / r.len() as f64).sqrt())
+    };
+    let mut dense_offset = 0;
     let n = board_mm.len();
     let mut pose_reports = Vec::with_capacity(corners_px.len());
     let mut sum_c = 0.0;
@@ -504,6 +576,14 @@ fn calibrate_inner(
             corners_px: corners_px[i].iter().map(|p| [p.x, p.y]).collect(),
             camera_residuals_px: res,
             projector_residuals_columns: proj_res[i].clone(),
+            dense_samples: samples.get(i).map_or(0, Vec::len),
+            dense_rms_columns: {
+                let n = samples.get(i).map_or(0, Vec::len);
+                let r = &dense_flat
+                    [dense_offset.min(dense_flat.len())..(dense_offset + n).min(dense_flat.len())];
+                dense_offset += n;
+                rms_of(r)
+            },
         });
     }
     let camera_rms_px = (sum_c / (n * corners_px.len()) as f64).sqrt();
@@ -634,6 +714,7 @@ fn calibrate_inner(
     let report = CalibrationReport {
         camera_rms_px,
         projector_rms_columns: proj_total,
+        dense_rms_columns: rms_of(&dense_flat),
         poses: pose_reports,
         camera: camera_params,
         projector: projector_params,
@@ -680,7 +761,8 @@ fn refine_joint(
         &[BoardPose],
         &ColumnModel,
     ),
-    sigma: (f64, f64),
+    sigma: (f64, f64, f64),
+    dense: &[Vec<DenseSample>],
     settings: &CalibrationSettings,
 ) -> Result<JointFit, LmError> {
     let (k, d, poses, model) = start;
@@ -710,6 +792,10 @@ fn refine_joint(
         let model = model_from_params(&p[off_proj..]);
         (k, d, poses, model)
     };
+    // The dense samples' rays depend on the camera's intrinsics only: kept while a trial (most
+    // columns of the numeric Jacobian) moves only poses or the projector.
+    type Rays = std::rc::Rc<Vec<Vec<nalgebra::Vector3<f64>>>>;
+    let ray_cache: std::cell::RefCell<Option<(Vec<f64>, Rays)>> = Default::default();
     let f = |p: &DVector<f64>| -> Option<DVector<f64>> {
         let (k, d, poses, model) = unpack(p.as_slice());
         let mut out = Vec::new();
@@ -718,10 +804,33 @@ fn refine_joint(
             *r /= sigma.0;
         }
         let n_cam = out.len();
-        let points = corner_points(board_mm, &poses);
-        column_residuals(&model, &points, columns, &mut out)?;
-        for r in out[n_cam..].iter_mut() {
-            *r /= sigma.1;
+        if dense.is_empty() {
+            let points = corner_points(board_mm, &poses);
+            column_residuals(&model, &points, columns, &mut out)?;
+            for r in out[n_cam..].iter_mut() {
+                *r /= sigma.1;
+            }
+        }
+        let n_before = out.len();
+        if !dense.is_empty() {
+            let intrinsics = &p.as_slice()[..CAMERA_INTRINSIC_PARAMS];
+            let cached = ray_cache
+                .borrow()
+                .as_ref()
+                .filter(|(key, _)| key.as_slice() == intrinsics)
+                .map(|(_, rays)| rays.clone());
+            let rays = match cached {
+                Some(rays) => rays,
+                None => {
+                    let rays: Rays = std::rc::Rc::new(dense::rays(&k, &d, dense)?);
+                    *ray_cache.borrow_mut() = Some((intrinsics.to_vec(), rays.clone()));
+                    rays
+                }
+            };
+            dense::residuals(&rays, &poses, &model, dense, &mut out)?;
+        }
+        for r in out[n_before..].iter_mut() {
+            *r /= sigma.2;
         }
         Some(DVector::from_vec(out))
     };

@@ -6,6 +6,7 @@
 pub mod board;
 pub mod calibrate;
 pub mod corners;
+pub mod dense;
 pub mod homography;
 pub mod projector;
 pub mod refine;

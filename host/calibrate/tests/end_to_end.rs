@@ -15,22 +15,24 @@
 //! everything after corner detection (render, decode, local column fits, calibration);
 //! `calibrates_from_detected_corners` runs the whole chain with `corners::detect`.
 //!
-//! Measured (seeded, so repeatable): with the true corner pixels the plane is 0.0034 mm
-//! (0.0007%) off raw and 0.0009 mm after alignment, the projector RMS 0.0036 column: render,
-//! decode, local column fits and calibration are unbiased. With detected corners (0.026 px RMS
-//! from the truth, mean error ≤ 0.009 px per pose) the camera RMS is 0.025 px, the projector
-//! 0.0043 column, camera fx +0.003%, projector fx −0.012%, baseline −0.020%; the plane 0.011 mm
-//! = 0.0023% after alignment, and raw 0.080 mm (0.016%) in 3D, 0.031 mm in depth. The raw
-//! figure is the noise of the camera frame's own definition: the principal point is off by
-//! (+0.09, −0.03) px with a stated σ of (0.19, 0.17) px, and 0.2 px turns the frame by
-//! 0.3 mrad, 0.16 mm sideways at 500 mm. Other sensor seeds (100, 200, 300) give 0.122, 0.178
-//! and 0.145 mm raw in 3D (0.024–0.036%; 0.03–0.10 mm in depth: the focal length against the
-//! distance along the axis) and 0.003–0.008 mm aligned, so the raw 0.02% is met at this seed
-//! but not at every one. Over the four seeds the principal point is off by 0.10 px (x) and
-//! 0.12 px (y) RMS, within its stated σ; no bias of detection or decoding is left to explain
-//! it: on the first nine poses, iid Gaussian noise of the detection's RMS added to the true
-//! corners gave the same spread (cx 0.50 px RMS over 6 trials, stated σ 0.41 px; the detected
-//! corners 0.31 px).
+//! Measured (seeded, so repeatable), with the joint refinement's dense column samples
+//! (`fsm_calibrate::dense`, the default): with the true corner pixels the plane is 0.0006 mm
+//! off raw and 0.0005 mm after alignment: render, decode, column fits and calibration are
+//! unbiased. With detected corners (0.026 px RMS from the truth) the camera RMS is 0.025 px,
+//! the dense samples 0.016 column, camera fx −0.012%, baseline +0.001%, the principal point
+//! (+0.05, −0.02) px off with a stated σ of (0.07, 0.16) px; the plane 0.0019 mm = 0.0004%
+//! after alignment, raw 0.069 mm (0.014%) in 3D and 0.056 mm in depth. From the corners'
+//! columns alone (`dense: None`, also run) σ(cx) is 0.19 px and the plane 0.011 mm aligned,
+//! 0.080 mm raw.
+//!
+//! Other sensor seeds (100, 200, 300, 1010) give, dense: raw 0.138, 0.042, 0.135, 0.276 mm in
+//! 3D, 0.071, 0.034, 0.050, 0.274 mm in depth, 0.0027–0.0040 mm aligned (corners only: 0.122,
+//! 0.178, 0.145, 0.308 mm raw; 0.0034–0.0085 mm aligned). So the raw 0.02% (0.1 mm) is not met
+//! at every seed, and is not asserted. What is left is the scale and the frame, not the
+//! shape: the depth error follows the camera's fx error (−0.054% at seed 1010, the whole
+//! reconstruction scaled with it), which only the boards' perspective fixes, and the 3D error
+//! adds the principal point's `y`, which the projector's columns do not see (σ(cy) stays
+//! 0.16 px, 0.12 mm sideways at 500 mm).
 
 mod support;
 
@@ -182,8 +184,17 @@ fn rendered() -> &'static [Rendered] {
     })
 }
 
-/// Calibrates from the rendered poses with the given corners and checks the thresholds.
-fn calibrate_and_check(corners: Vec<Vec<Point2<f64>>>) {
+/// What [`calibrate_and_check`] measured.
+struct Checked {
+    /// Principal point `x` error and its stated σ, px.
+    cx: (f64, f64),
+    /// The plane's deviation.
+    plane: support::PlaneDeviation,
+}
+
+/// Calibrates from the rendered poses with the given corners (with or without the dense column
+/// samples) and checks the thresholds every calibration must meet.
+fn calibrate_and_check(corners: Vec<Vec<Point2<f64>>>, dense: bool) -> Checked {
     let system = System::bench();
     let truth = system.calibration;
     let (_, board) = board();
@@ -202,7 +213,10 @@ fn calibrate_and_check(corners: Vec<Vec<Point2<f64>>>) {
             },
         })
         .collect();
-    let settings = CalibrationSettings::new(320, 240, 768, 1024);
+    let mut settings = CalibrationSettings::new(320, 240, 768, 1024);
+    if !dense {
+        settings.dense = None;
+    }
     let (cal, report) = calibrate(&board.corners_mm(), &observations, &settings)
         .unwrap_or_else(|e| panic!("calibration: {e}"));
     for p in &report.poses {
@@ -234,9 +248,11 @@ fn calibrate_and_check(corners: Vec<Vec<Point2<f64>>>) {
     let (dcx, dcy) = (ck.cx_px - tk.cx_px, ck.cy_px - tk.cy_px);
     let (scx, scy) = (std("cx_px"), std("cy_px"));
     eprintln!(
-        "camera RMS {:.4} px, projector RMS {:.4} col | camera fx {:+.3}% cx {dcx:+.3} (± {scx:.3}) cy {dcy:+.3} (± {scy:.3}) k1 {:+.4} | projector fx {:+.3}% cx {:+.3} k1 {:+.4} | baseline {:+.3}%, t {:.3} mm | plane, raw: depth {:.4} mm = {:.4}% of 500 mm, 3D {:.4} mm = {:.4}%; after rigid alignment {:.4} mm = {:.4}%",
+        "{} | camera RMS {:.4} px, projector RMS {:.4} col, dense {:.4} col | camera fx {:+.3}% cx {dcx:+.3} (± {scx:.3}) cy {dcy:+.3} (± {scy:.3}) k1 {:+.4} | projector fx {:+.3}% cx {:+.3} k1 {:+.4} | baseline {:+.3}%, t {:.3} mm | plane, raw: depth {:.4} mm = {:.4}% of 500 mm, 3D {:.4} mm = {:.4}%; after rigid alignment {:.4} mm = {:.4}%",
+        if dense { "dense" } else { "corners only" },
         report.camera_rms_px,
         report.projector_rms_columns,
+        report.dense_rms_columns.unwrap_or(f64::NAN),
         (ck.fx_px / tk.fx_px - 1.0) * 100.0,
         cal.camera.distortion().k1 - truth.camera.distortion().k1,
         (pk.fx_px / tp.fx_px - 1.0) * 100.0,
@@ -271,6 +287,11 @@ fn calibrate_and_check(corners: Vec<Vec<Point2<f64>>>) {
         "plane deviation {} mm aligned",
         plane.aligned_mm
     );
+    assert_eq!(report.dense_rms_columns.is_some(), dense);
+    Checked {
+        cx: (dcx, scx),
+        plane,
+    }
 }
 
 /// Everything after corner detection. Measured: projector RMS 0.0036 column, the plane
@@ -300,7 +321,12 @@ fn calibrates_from_true_corner_pixels() {
         eprintln!("pose {i}: local column error at the true corners RMS {rms:.4} column");
         assert!(rms < 0.01, "pose {i}: local column RMS {rms}");
     }
-    calibrate_and_check(rendered().iter().map(|r| r.true_px.clone()).collect());
+    let checked = calibrate_and_check(rendered().iter().map(|r| r.true_px.clone()).collect(), true);
+    assert!(
+        checked.plane.raw_mm < 0.005,
+        "raw {} mm",
+        checked.plane.raw_mm
+    );
 }
 
 /// The whole chain, corners detected in each scan's white frame.
@@ -330,5 +356,20 @@ fn calibrates_from_detected_corners() {
         .collect();
     let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
     eprintln!("corner detection error RMS {rms:.4} px");
-    calibrate_and_check(corners);
+    let dense = calibrate_and_check(corners.clone(), true);
+    let sparse = calibrate_and_check(corners, false);
+    // The dense samples pin the principal point along the projector's columns (x) and the
+    // shape: measured σ(cx) 0.07 px against 0.19 from the corners' columns alone, the plane
+    // 0.002 mm against 0.011 after alignment.
+    assert!(
+        dense.cx.1 < 0.5 * sparse.cx.1,
+        "σ(cx) {} px dense, {} px from the corners",
+        dense.cx.1,
+        sparse.cx.1
+    );
+    assert!(
+        dense.plane.aligned_mm <= 0.005,
+        "aligned {} mm",
+        dense.plane.aligned_mm
+    );
 }

@@ -94,6 +94,10 @@ pub struct Args {
     /// Skip the final joint refinement of camera and projector.
     #[arg(long)]
     no_joint: bool,
+    /// Joint refinement from the corners' columns only, without the dense column samples of
+    /// every light square (faster, less precise).
+    #[arg(long)]
+    no_dense: bool,
     /// Half-width of the window of decoded pixels fitted around each corner, px.
     #[arg(long, value_name = "PX", default_value_t = 12)]
     window: usize,
@@ -265,6 +269,9 @@ pub fn run(args: Args) -> Result<()> {
     settings.camera.fix_k3 = !args.camera_k3;
     settings.projector.refine_tangential = args.projector_tangential;
     settings.joint = !args.no_joint;
+    if args.no_dense {
+        settings.dense = None;
+    }
     settings.local.half_window_px = args.window;
     let (calibration, report) = calibrate(&board.corners_mm(), &observations, &settings)
         .map_err(|e| Error::Usage(format!("calibration failed: {e}")))?;
@@ -297,17 +304,27 @@ pub fn run(args: Args) -> Result<()> {
 
 fn print_report(report: &CalibrationReport) {
     println!(
-        "pose                          camera RMS px   projector RMS col   corners (with column)"
+        "pose                          camera RMS px   projector RMS col   corners (with column)   dense RMS col (samples)"
     );
+    let dense = |rms: Option<f64>| rms.map_or("-".to_string(), |r| format!("{r:.4}"));
     for p in &report.poses {
         println!(
-            "{:<30} {:>12.4} {:>19.4}   {} ({})",
-            p.label, p.camera_rms_px, p.projector_rms_columns, p.corners, p.corners_with_column
+            "{:<30} {:>12.4} {:>19.4}   {:>9} ({:>2})           {:>7} ({})",
+            p.label,
+            p.camera_rms_px,
+            p.projector_rms_columns,
+            p.corners,
+            p.corners_with_column,
+            dense(p.dense_rms_columns),
+            p.dense_samples
         );
     }
     println!(
-        "{:<30} {:>12.4} {:>19.4}",
-        "all", report.camera_rms_px, report.projector_rms_columns
+        "{:<30} {:>12.4} {:>19.4}                           {:>7}",
+        "all",
+        report.camera_rms_px,
+        report.projector_rms_columns,
+        dense(report.dense_rms_columns)
     );
     let show = |name: &str, params: &[fsm_calibrate::calibrate::Parameter]| {
         let list: Vec<String> = params
