@@ -400,23 +400,27 @@ mod tests {
         }
     }
 
+    /// The default samples of [`pose`] with the columns [`projector`] gives them.
+    fn true_samples() -> (
+        CameraMatrix,
+        BrownConrady,
+        BoardPose,
+        ColumnModel,
+        Vec<Vec<DenseSample>>,
+    ) {
+        let (k, d) = camera();
+        let (pose, model) = (pose(), projector());
+        let grid = Grid::of(&board().corners_mm()).unwrap();
+        let map = column_map(&pose, &model);
+        let samples = select(&map, &grid, &k, &d, &pose, &DenseSettings::default());
+        (k, d, pose, model, vec![samples])
+    }
+
     /// At the model that made the map the residuals vanish; a pose moved by 0.1 mm along its
     /// normal moves them by what the projector's column scale says.
     #[test]
     fn residuals_vanish_at_the_true_model() {
-        let (k, d) = camera();
-        let pose = pose();
-        let model = projector();
-        let grid = Grid::of(&board().corners_mm()).unwrap();
-        let map = column_map(&pose, &model);
-        let samples = vec![select(
-            &map,
-            &grid,
-            &k,
-            &d,
-            &pose,
-            &DenseSettings::default(),
-        )];
+        let (k, d, pose, model, samples) = true_samples();
         let rays = rays(&k, &d, &samples).unwrap();
         let mut r = Vec::new();
         residuals(&rays, &[pose], &model, &samples, &mut r).unwrap();
@@ -441,19 +445,7 @@ mod tests {
 
     #[test]
     fn pruning_drops_outliers_and_reports_their_spread() {
-        let (k, d) = camera();
-        let pose = pose();
-        let model = projector();
-        let grid = Grid::of(&board().corners_mm()).unwrap();
-        let map = column_map(&pose, &model);
-        let mut samples = vec![select(
-            &map,
-            &grid,
-            &k,
-            &d,
-            &pose,
-            &DenseSettings::default(),
-        )];
+        let (k, d, pose, model, mut samples) = true_samples();
         let n = samples[0].len();
         // A deterministic ±0.01 column pattern with every 50th sample 1 column off.
         for (i, s) in samples[0].iter_mut().enumerate() {
