@@ -200,6 +200,10 @@ impl std::error::Error for CalibrateError {}
 /// Fewest board corners accepted (a homography needs 4; the refinement more).
 pub const MIN_CORNERS: usize = 6;
 
+/// Fewest dense samples per pose, on average, for the joint refinement to use them rather than
+/// the corners' columns.
+pub const MIN_DENSE_SAMPLES_PER_POSE: usize = 20;
+
 /// One estimated parameter.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Parameter {
@@ -464,6 +468,10 @@ fn calibrate_inner(
             .collect(),
         _ => Vec::new(),
     };
+    // Too few (boards mostly dark or undecoded): the corners' columns instead.
+    if samples.iter().map(Vec::len).sum::<usize>() < MIN_DENSE_SAMPLES_PER_POSE * samples.len() {
+        samples.clear();
+    }
 
     // 4. Joint refinement.
     if settings.joint {
@@ -554,7 +562,7 @@ fn calibrate_inner(
     let rms_of = |r: &[f64]| {
         (!r.is_empty()).then(|| (r.iter().map(|e| e * e).sum::<f64>() / r.len() as f64).sqrt())
     };
-    let mut dense_offset = 0;
+    let mut dense_rest = dense_flat.as_slice();
     let n = board_mm.len();
     let mut pose_reports = Vec::with_capacity(corners_px.len());
     let mut sum_c = 0.0;
@@ -578,10 +586,8 @@ fn calibrate_inner(
             projector_residuals_columns: proj_res[i].clone(),
             dense_samples: samples.get(i).map_or(0, Vec::len),
             dense_rms_columns: {
-                let n = samples.get(i).map_or(0, Vec::len);
-                let r = &dense_flat
-                    [dense_offset.min(dense_flat.len())..(dense_offset + n).min(dense_flat.len())];
-                dense_offset += n;
+                let (r, rest) = dense_rest.split_at(samples.get(i).map_or(0, Vec::len));
+                dense_rest = rest;
                 rms_of(r)
             },
         });
