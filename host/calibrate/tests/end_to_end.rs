@@ -19,20 +19,20 @@
 //! (`fsm_calibrate::dense`, the default): with the true corner pixels the plane is 0.0006 mm
 //! off raw and 0.0005 mm after alignment: render, decode, column fits and calibration are
 //! unbiased. With detected corners (0.026 px RMS from the truth) the camera RMS is 0.025 px,
-//! the dense samples 0.016 column, camera fx −0.012%, baseline +0.001%, the principal point
-//! (+0.05, −0.02) px off with a stated σ of (0.07, 0.16) px; the plane 0.0019 mm = 0.0004%
-//! after alignment, raw 0.069 mm (0.014%) in 3D and 0.056 mm in depth. From the corners'
-//! columns alone (`dense: None`, also run) σ(cx) is 0.19 px and the plane 0.011 mm aligned,
-//! 0.080 mm raw.
+//! the dense samples 0.016 column, camera fx −0.012% (stated σ 0.022%), baseline +0.001%, the
+//! principal point (+0.05, −0.02) px off with a stated σ of (0.07, 0.16) px; the plane
+//! 0.0019 mm = 0.0004% after alignment, raw 0.069 mm (0.014%) in 3D and 0.056 mm in depth.
+//! From the corners' columns alone (`dense: None`, also run) σ(cx) is 0.19 px and the plane
+//! 0.011 mm aligned, 0.080 mm raw.
 //!
 //! Other sensor seeds (100, 200, 300, 1010) give, dense: raw 0.138, 0.042, 0.135, 0.276 mm in
 //! 3D, 0.071, 0.034, 0.050, 0.274 mm in depth, 0.0027–0.0040 mm aligned (corners only: 0.122,
 //! 0.178, 0.145, 0.308 mm raw; 0.0034–0.0085 mm aligned). So the raw 0.02% (0.1 mm) is not met
 //! at every seed, and is not asserted. What is left is the scale and the frame, not the
-//! shape: the depth error follows the camera's fx error (−0.054% at seed 1010, the whole
-//! reconstruction scaled with it), which only the boards' perspective fixes, and the 3D error
-//! adds the principal point's `y`, which the projector's columns do not see (σ(cy) stays
-//! 0.16 px, 0.12 mm sideways at 500 mm).
+//! shape. The depth error follows the camera's fx error (−0.054% at seed 1010, the whole
+//! reconstruction scaled with it; 2.5 times the σ stated at seed 10), which only the boards'
+//! perspective fixes. The 3D error adds the principal point's `y`, which the projector's
+//! columns do not see (σ(cy) stays 0.16 px, 0.12 mm sideways at 500 mm).
 
 mod support;
 
@@ -262,8 +262,9 @@ fn calibrate_and_check(width: u32, corners: Vec<Vec<Point2<f64>>>, dense: bool) 
     };
     let (dcx, dcy) = (ck.cx_px - tk.cx_px, ck.cy_px - tk.cy_px);
     let (scx, scy) = (std("cx_px"), std("cy_px"));
+    let sfx = std("fx_px") / tk.fx_px * 100.0;
     eprintln!(
-        "{} | camera RMS {:.4} px, projector RMS {:.4} col, dense {:.4} col | camera fx {:+.3}% cx {dcx:+.3} (± {scx:.3}) cy {dcy:+.3} (± {scy:.3}) k1 {:+.4} | projector fx {:+.3}% cx {:+.3} k1 {:+.4} | baseline {:+.3}%, t {:.3} mm | plane, raw: depth {:.4} mm = {:.4}% of 500 mm, 3D {:.4} mm = {:.4}%; after rigid alignment {:.4} mm = {:.4}%",
+        "{} | camera RMS {:.4} px, projector RMS {:.4} col, dense {:.4} col | camera fx {:+.3}% (± {sfx:.3}%) cx {dcx:+.3} (± {scx:.3}) cy {dcy:+.3} (± {scy:.3}) k1 {:+.4} | projector fx {:+.3}% cx {:+.3} k1 {:+.4} | baseline {:+.3}%, t {:.3} mm | plane, raw: depth {:.4} mm = {:.4}% of 500 mm, 3D {:.4} mm = {:.4}%; after rigid alignment {:.4} mm = {:.4}%",
         if dense { "dense" } else { "corners only" },
         report.camera_rms_px,
         report.projector_rms_columns,
@@ -289,12 +290,18 @@ fn calibrate_and_check(width: u32, corners: Vec<Vec<Point2<f64>>>, dense: bool) 
     assert!((pk.fx_px / tp.fx_px - 1.0).abs() < 0.005);
     assert!(t_err < 2.0);
     // The plane raw (no alignment to the truth) is printed, not asserted: it is the noise of
-    // the camera frame's own definition, not a bias (module documentation). What is checked
-    // is that the principal point's error, which turns the whole frame, is within what the
-    // calibration states (3σ of σ²(JᵀJ)⁻¹ of the joint refinement): beyond it would be a bias.
+    // the camera frame's own definition and scale, not a bias (module documentation). What is
+    // checked is that the errors of the principal point, which turns the whole frame, and of
+    // fx, which scales it (depth), are within what the calibration states (3σ of σ²(JᵀJ)⁻¹ of
+    // the joint refinement): beyond it would be a bias.
     assert!(
         dcx.abs() <= 3.0 * scx + 0.01 && dcy.abs() <= 3.0 * scy + 0.01,
         "principal point off by ({dcx}, {dcy}) px, stated σ ({scx}, {scy}) px"
+    );
+    let dfx = (ck.fx_px / tk.fx_px - 1.0) * 100.0;
+    assert!(
+        dfx.abs() <= 3.0 * sfx + 1e-4,
+        "fx off by {dfx}%, stated σ {sfx}%"
     );
     // The shape: after the best rigid alignment, within 0.02% of the standoff.
     assert!(
