@@ -149,6 +149,36 @@ impl Checkerboard {
         out
     }
 
+    /// The board whose [`Checkerboard::corners_mm`] is `corners_mm` (to 1e-9 of a square),
+    /// `None` when the list is not a row-major corner grid of at least 2 × 2.
+    pub fn from_corners_mm(corners_mm: &[Point2<f64>]) -> Option<Checkerboard> {
+        if corners_mm.len() < 4 || corners_mm[0] != Point2::origin() {
+            return None;
+        }
+        let s = corners_mm[1].x;
+        if !(s.is_finite() && s > 0.0) {
+            return None;
+        }
+        let columns = corners_mm
+            .iter()
+            .position(|p| p.y != 0.0)
+            .unwrap_or(corners_mm.len());
+        if columns < 2 || corners_mm.len() % columns != 0 || corners_mm.len() / columns < 2 {
+            return None;
+        }
+        let rows = corners_mm.len() / columns;
+        let tol = 1e-9 * s * (columns + rows) as f64;
+        let regular = corners_mm.iter().enumerate().all(|(i, p)| {
+            let (c, r) = ((i % columns) as f64, (i / columns) as f64);
+            (p.x - c * s).abs() <= tol && (p.y - r * s).abs() <= tol
+        });
+        regular.then_some(Checkerboard {
+            inner_columns: u32::try_from(columns).ok()?,
+            inner_rows: u32::try_from(rows).ok()?,
+            square_mm: s,
+        })
+    }
+
     /// Number of inner corners, `inner_columns · inner_rows`.
     pub fn corner_count(&self) -> usize {
         self.inner_columns as usize * self.inner_rows as usize

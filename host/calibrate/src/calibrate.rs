@@ -21,7 +21,8 @@ use serde::Serialize;
 
 use fsm_geometry::{Calibration, Intrinsics, MeasurementVolume, ModelError, Pinhole};
 
-use crate::dense::{self, DenseSample, DenseSettings, Grid};
+use crate::board::Checkerboard;
+use crate::dense::{self, DenseSample, DenseSettings};
 use crate::homography::{local_column, LocalColumnSettings};
 use crate::projector::{
     calibrate_projector, column_residuals, model_from_params, model_params, projector_free_mask,
@@ -459,12 +460,12 @@ fn calibrate_inner(
     let mut last_stop = proj.stop;
 
     // Dense samples, located with the camera stage's model.
-    let grid = Grid::of(board_mm);
-    let mut samples: Vec<Vec<DenseSample>> = match (settings.dense, grid) {
-        (Some(ds), Some(grid)) if maps.len() == cam.poses.len() => maps
+    let board = Checkerboard::from_corners_mm(board_mm);
+    let mut samples: Vec<Vec<DenseSample>> = match (settings.dense, board) {
+        (Some(ds), Some(board)) if maps.len() == cam.poses.len() => maps
             .iter()
             .zip(&cam.poses)
-            .map(|(map, pose)| dense::select(map, &grid, &camera_k, &camera_d, pose, &ds))
+            .map(|(map, pose)| dense::select(map, &board, &camera_k, &camera_d, pose, &ds))
             .collect(),
         _ => Vec::new(),
     };

@@ -22,7 +22,9 @@
 
 use nalgebra::{Point2, Point3, Vector2, Vector3};
 
+use crate::board::Checkerboard;
 use crate::calibrate::ColumnMap;
+use crate::homography::median;
 use crate::projector::ColumnModel;
 use crate::zhang::{BoardPose, CameraMatrix};
 use fsm_geometry::BrownConrady;
@@ -58,62 +60,15 @@ pub struct DenseSample {
     pub column: f64,
 }
 
-/// The corner grid behind `board_mm`: corner `(c, r)` at `(c·s, r·s)`, row-major.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Grid {
-    /// Inner corners along a row.
-    pub columns: usize,
-    /// Inner corners down a column.
-    pub rows: usize,
-    /// Square side, mm.
-    pub square_mm: f64,
-}
-
-impl Grid {
-    /// The grid of a row-major checkerboard corner list ([`crate::board::Checkerboard::corners_mm`]),
-    /// `None` when `board_mm` is not one.
-    pub fn of(board_mm: &[Point2<f64>]) -> Option<Grid> {
-        if board_mm.len() < 4 || board_mm[0] != Point2::origin() {
-            return None;
-        }
-        let s = board_mm[1].x;
-        if !(s.is_finite() && s > 0.0) {
-            return None;
-        }
-        let columns = board_mm
-            .iter()
-            .position(|p| p.y != 0.0)
-            .unwrap_or(board_mm.len());
-        if columns < 2 || board_mm.len() % columns != 0 {
-            return None;
-        }
-        let rows = board_mm.len() / columns;
-        let tol = 1e-9 * s * (columns + rows) as f64;
-        let regular = board_mm.iter().enumerate().all(|(i, p)| {
-            let (c, r) = ((i % columns) as f64, (i / columns) as f64);
-            (p.x - c * s).abs() <= tol && (p.y - r * s).abs() <= tol
-        });
-        (regular && rows >= 2).then_some(Grid {
-            columns,
-            rows,
-            square_mm: s,
-        })
-    }
-
-    /// The square `(c, r)` holding board point `b` (the one between corners `(c, r)` and
-    /// `(c + 1, r + 1)`), `None` outside the squares.
-    fn square(&self, b: Point2<f64>) -> Option<(i64, i64)> {
-        let (c, r) = (
-            (b.x / self.square_mm).floor() as i64,
-            (b.y / self.square_mm).floor() as i64,
-        );
-        (c >= -1 && r >= -1 && c < self.columns as i64 && r < self.rows as i64).then_some((c, r))
-    }
-}
-
-/// The board's light squares: `c + r` odd (`crate::board`).
-fn is_light((c, r): (i64, i64)) -> bool {
-    (c + r).rem_euclid(2) == 1
+/// The square `(c, r)` of `board` holding board point `b` (the one between corners `(c, r)` and
+/// `(c + 1, r + 1)`), `None` outside the squares.
+fn square_of(board: &Checkerboard, b: Point2<f64>) -> Option<(i64, i64)> {
+    let (c, r) = (
+        (b.x / board.square_mm).floor() as i64,
+        (b.y / board.square_mm).floor() as i64,
+    );
+    (c >= -1 && r >= -1 && c < board.inner_columns as i64 && r < board.inner_rows as i64)
+        .then_some((c, r))
 }
 
 /// Where the camera ray of `pixel` meets the board plane, camera frame; `None` when it does not
@@ -147,7 +102,7 @@ fn board_coordinates(pose: &BoardPose, x: &Point3<f64>) -> Point2<f64> {
 /// with the camera model and pose given (the camera stage's).
 pub fn select(
     map: &ColumnMap,
-    grid: &Grid,
+    board: &Checkerboard,
     k: &CameraMatrix,
     d: &BrownConrady,
     pose: &BoardPose,
@@ -157,7 +112,8 @@ pub fn select(
     let nt = normal.dot(&pose.translation_mm);
     let m = settings.edge_margin_px + 0.5;
     let square_at = |p: Point2<f64>| {
-        ray_on_board(k, d, &normal, nt, p).and_then(|x| grid.square(board_coordinates(pose, &x)))
+        ray_on_board(k, d, &normal, nt, p)
+            .and_then(|x| square_of(board, board_coordinates(pose, &x)))
     };
     let stride = settings.stride_px.max(1);
     let mut out = Vec::new();
@@ -171,7 +127,7 @@ pub fn select(
             let Some(sq) = square_at(pixel) else {
                 continue;
             };
-            if !is_light(sq) {
+            if Checkerboard::square_is_dark(sq.0, sq.1) {
                 continue;
             }
             let inside = [(-m, -m), (m, -m), (-m, m), (m, m)]
@@ -247,18 +203,12 @@ pub(crate) fn weigh_and_prune(
 /// Median absolute value × 1.4826: σ of Gaussian residuals, unmoved by a few outliers.
 pub(crate) fn robust_sigma(r: &[f64]) -> f64 {
     let mut a: Vec<f64> = r.iter().map(|x| x.abs()).collect();
-    if a.is_empty() {
-        return f64::NAN;
-    }
-    let mid = a.len() / 2;
-    a.select_nth_unstable_by(mid, f64::total_cmp);
-    1.4826 * a[mid]
+    1.4826 * median(&mut a)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::board::Checkerboard;
     use nalgebra::Rotation3;
 
     const W: usize = 320;
@@ -339,15 +289,15 @@ mod tests {
     }
 
     #[test]
-    fn the_grid_of_a_board_and_of_other_point_lists() {
-        let grid = Grid::of(&board().corners_mm()).unwrap();
-        assert_eq!((grid.columns, grid.rows, grid.square_mm), (9, 6, 20.0));
-        let mut shuffled = board().corners_mm();
+    fn the_board_of_its_corners_and_of_other_point_lists() {
+        let corners = board().corners_mm();
+        assert_eq!(Checkerboard::from_corners_mm(&corners), Some(board()));
+        let mut shuffled = corners.clone();
         shuffled.swap(3, 7);
-        assert_eq!(Grid::of(&shuffled), None);
+        assert_eq!(Checkerboard::from_corners_mm(&shuffled), None);
         let line: Vec<Point2<f64>> = (0..5).map(|i| Point2::new(i as f64, 0.0)).collect();
-        assert_eq!(Grid::of(&line), None);
-        assert_eq!(Grid::of(&board().corners_mm()[1..]), None);
+        assert_eq!(Checkerboard::from_corners_mm(&line), None);
+        assert_eq!(Checkerboard::from_corners_mm(&corners[1..]), None);
     }
 
     /// Every sample's footprint and margin lie in one light square (checked at 25 points of
@@ -357,7 +307,6 @@ mod tests {
     fn samples_lie_inside_light_squares() {
         let (k, d) = camera();
         let pose = pose();
-        let grid = Grid::of(&board().corners_mm()).unwrap();
         let mut map = column_map(&pose, &projector());
         for c in map.columns.iter_mut().skip(7).step_by(11) {
             *c = f32::NAN;
@@ -366,12 +315,12 @@ mod tests {
             stride_px: 1,
             ..DenseSettings::default()
         };
-        let samples = select(&map, &grid, &k, &d, &pose, &settings);
+        let samples = select(&map, &board(), &k, &d, &pose, &settings);
         let normal = pose.normal();
         let nt = normal.dot(&pose.translation_mm);
         let square_at = |p: Point2<f64>| {
             let x = ray_on_board(&k, &d, &normal, nt, p).unwrap();
-            grid.square(board_coordinates(&pose, &x))
+            square_of(&board(), board_coordinates(&pose, &x))
         };
         // Light squares are (c + r) odd: 35 of the 70 squares, each about 22 × 24 px on this
         // pose; 2 px off each side leaves about 35 × 18 × 20 ≈ 12,600 pixels, less the NaN ones.
@@ -382,7 +331,11 @@ mod tests {
             assert!(map.columns[y * W + x].is_finite());
             assert_eq!(s.column, map.columns[y * W + x] as f64);
             let sq = square_at(s.pixel).unwrap();
-            assert!(is_light(sq), "{:?} on dark square {sq:?}", s.pixel);
+            assert!(
+                !Checkerboard::square_is_dark(sq.0, sq.1),
+                "{:?} on dark square {sq:?}",
+                s.pixel
+            );
             for i in 0..5 {
                 for j in 0..5 {
                     let p = Point2::new(
@@ -410,9 +363,8 @@ mod tests {
     ) {
         let (k, d) = camera();
         let (pose, model) = (pose(), projector());
-        let grid = Grid::of(&board().corners_mm()).unwrap();
         let map = column_map(&pose, &model);
-        let samples = select(&map, &grid, &k, &d, &pose, &DenseSettings::default());
+        let samples = select(&map, &board(), &k, &d, &pose, &DenseSettings::default());
         (k, d, pose, model, vec![samples])
     }
 

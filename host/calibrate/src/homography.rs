@@ -385,7 +385,8 @@ pub fn local_column(
     Ok(fit)
 }
 
-fn median(v: &mut [f64]) -> f64 {
+/// Median of `v` (reordered), the mean of the middle two for an even count; NaN when empty.
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }

@@ -1,25 +1,16 @@
 //! The joint refinement's dense column samples on exact synthetic scans: the bench's board at
-//! the first nine poses of `end_to_end.rs`, true corner pixels with 0.02 px of Gaussian noise,
-//! and column maps computed from the bench's true geometry with 0.004 column of noise (no
-//! rendering, so this runs in seconds).
+//! the first nine of the end-to-end test's poses (`support::POSES`), true corner pixels with
+//! 0.02 px of Gaussian noise, and column maps computed from the bench's true geometry with
+//! 0.004 column of noise (no rendering, so this runs in seconds).
+
+mod support;
 
 use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::{calibrate, CalibrationSettings, ColumnMap, PoseObservation};
 use fsm_sim::target::{self, BoardPose};
 use fsm_sim::System;
 use nalgebra::{Point2, Point3};
-
-const POSES: [([f64; 3], f64); 9] = [
-    ([15.0, -15.0, 0.0], 540.0),
-    ([30.0, 0.0, 5.0], 560.0),
-    ([-30.0, 0.0, -5.0], 560.0),
-    ([0.0, 30.0, 0.0], 560.0),
-    ([0.0, -30.0, 8.0], 560.0),
-    ([20.0, 20.0, 10.0], 580.0),
-    ([-20.0, -20.0, -10.0], 570.0),
-    ([20.0, -20.0, 0.0], 560.0),
-    ([-20.0, 20.0, 5.0], 560.0),
-];
+use support::POSES;
 
 /// A reproducible standard normal sequence (xorshift + Box–Muller).
 struct Normal(u64);
@@ -46,11 +37,11 @@ fn observations(keep: impl Fn(Point2<f64>, &[Point2<f64>]) -> bool) -> Vec<PoseO
     let (w, h) = (system.width() as usize, system.height() as usize);
     let (lo, hi) = board.outline_board_mm();
     let mut noise = Normal(0x5eed);
-    POSES
+    POSES[..9]
         .iter()
         .enumerate()
-        .map(|(i, (a, z))| {
-            let pose = BoardPose::tilted(&board, [0.0, 0.0, *z], a[0], a[1], a[2]);
+        .map(|(i, (a, centre))| {
+            let pose = BoardPose::tilted(&board, *centre, a[0], a[1], a[2]);
             let true_px: Vec<Point2<f64>> = target::true_corner_pixels(&system, &board, &pose)
                 .into_iter()
                 .map(|p| p.unwrap())
