@@ -135,6 +135,7 @@ fn measure(system: &System, spec: &PoseSpec, sensor: Option<&Sensor>, seed: u64)
     Measured { rms, max }
 }
 
+/// Measured: RMS 0.0029–0.0039 px per pose, worst corner 0.012 px, 0.0034 px over all.
 #[test]
 fn corners_match_the_true_projection_without_noise() {
     let system = System::bench();
@@ -142,15 +143,16 @@ fn corners_match_the_true_projection_without_noise() {
     for spec in &POSES {
         let m = measure(&system, spec, None, 0);
         // A wrong order (a turned board) would be off by whole squares.
-        assert!(m.max < 0.15, "{}: max error {} px", spec.0, m.max);
-        assert!(m.rms <= 0.05, "{}: RMS {} px", spec.0, m.rms);
+        assert!(m.max < 0.03, "{}: max error {} px", spec.0, m.max);
+        assert!(m.rms <= 0.01, "{}: RMS {} px", spec.0, m.rms);
         all += m.rms * m.rms;
     }
     let rms = (all / POSES.len() as f64).sqrt();
     eprintln!("all poses, clean: RMS {rms:.4} px");
-    assert!(rms <= 0.05);
+    assert!(rms <= 0.006);
 }
 
+/// Measured: RMS 0.0035–0.0053 px per pose, worst corner 0.012 px, 0.0046 px over all.
 #[test]
 fn corners_match_the_true_projection_with_default_sensor_noise() {
     let system = System::bench();
@@ -158,17 +160,19 @@ fn corners_match_the_true_projection_with_default_sensor_noise() {
     let mut all = 0.0;
     for (k, spec) in POSES.iter().enumerate() {
         let m = measure(&system, spec, Some(&sensor), 100 + k as u64);
-        assert!(m.max < 0.3, "{}: max error {} px", spec.0, m.max);
-        assert!(m.rms <= 0.1, "{}: RMS {} px", spec.0, m.rms);
+        assert!(m.max < 0.05, "{}: max error {} px", spec.0, m.max);
+        assert!(m.rms <= 0.01, "{}: RMS {} px", spec.0, m.rms);
         all += m.rms * m.rms;
     }
     let rms = (all / POSES.len() as f64).sqrt();
     eprintln!("all poses, noisy: RMS {rms:.4} px");
-    assert!(rms <= 0.1);
+    assert!(rms <= 0.008);
 }
 
 /// Many poses (yaw and pitch up to ±40°, 450–700 mm, any roll), both noise levels, the bench
-/// camera and a 640 × 480 one.
+/// camera and a 640 × 480 one. Measured: worst pose RMS 0.0058 px clean, 0.0069 px noisy, worst
+/// corner 0.016 px (320 × 240); 0.0041, 0.0052 and 0.013 px (640 × 480). Corners whose
+/// windows the image's border cuts are among them.
 /// `cargo test -p fsm-calibrate --test corners -- --ignored --nocapture`
 #[test]
 #[ignore]
@@ -228,7 +232,8 @@ fn corners_over_many_poses_and_two_cameras() {
             worst_max[0],
             worst_max[1]
         );
-        assert!(worst_rms[0] <= 0.05 && worst_rms[1] <= 0.1);
+        assert!(worst_rms[0] <= 0.01 && worst_rms[1] <= 0.012);
+        assert!(worst_max[0] <= 0.03 && worst_max[1] <= 0.03);
     }
 }
 
@@ -594,6 +599,8 @@ fn structure(
 /// (`fsm_sim::transport::footprint`), so the edges' coverage errors are independent from pixel
 /// to pixel and the corners are as good as on tilted boards: RMS within the tilted poses'
 /// limits, mean error under 0.01 px, no correlation left with the fixed grid's step.
+/// Measured: RMS 0.0058–0.0077 px, worst corner 0.030 px, mean under 0.0025 px, correlations
+/// under 0.25.
 #[test]
 fn fronto_parallel_corners_at_the_default_rays() {
     let system = System::bench();
@@ -609,10 +616,9 @@ fn fronto_parallel_corners_at_the_default_rays() {
     ] {
         for (k, sensor) in [None, Some(Sensor::default())].iter().enumerate() {
             let m = structure(&system, &spec, sensor.as_ref(), 20 + k as u64, rays);
-            let limit = if sensor.is_some() { 0.04 } else { 0.03 };
-            assert!(m.rms <= limit, "{}: RMS {}", spec.0, m.rms);
-            assert!(m.mean.norm() <= 0.01, "{}: mean {}", spec.0, m.mean);
-            assert!(m.max < 0.12, "{}: max {}", spec.0, m.max);
+            assert!(m.rms <= 0.015, "{}: RMS {}", spec.0, m.rms);
+            assert!(m.mean.norm() <= 0.005, "{}: mean {}", spec.0, m.mean);
+            assert!(m.max < 0.06, "{}: max {}", spec.0, m.max);
             let (cx, cy) = m.corr_fixed_grid;
             assert!(cx.abs() < 0.5 && cy.abs() < 0.5, "{}: {cx} {cy}", spec.0);
         }

@@ -87,6 +87,11 @@ pub struct Args {
     /// Noise seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Rays per pixel along each axis of the light transport (N x N per pixel). More rays
+    /// render edges closer to a real pixel's integral: a board's corners are 0.008 px off
+    /// with 4, 0.004 px with 8 (the calibration's end-to-end test), at about twice the time.
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
+    supersampling: u32,
     /// Write a 16-bit PNG per frame under images/ instead of a row dump.
     #[arg(long)]
     images: bool,
@@ -252,7 +257,7 @@ pub fn run(args: Args) -> Result<()> {
     let scene = Scene::by_name(&args.scene).map_err(sim_error)?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     let staged = StagedDir::create(&args.out, args.force)?;
-    let capture = capture_of(&scene, &plan, &system, args.seed)?;
+    let capture = capture_of(&scene, &plan, &system, args.seed, args.supersampling)?;
     write_plan(&plan, &staged.file("plan.toml"))?;
     write_calibration(&system, &staged.file("calibration.toml"))?;
     if args.images {
@@ -293,10 +298,20 @@ fn plan_of(args: &Args, default: Option<&str>) -> Result<ScanPlan> {
     })
 }
 
-/// The scene's light transport (default settings) and a capture of `plan` over it.
-fn capture_of(scene: &Scene, plan: &ScanPlan, system: &System, seed: u64) -> Result<Capture> {
-    let transport =
-        LightTransport::compute(scene, system, &TransportSettings::default()).map_err(sim_error)?;
+/// The scene's light transport (`supersampling` rays per pixel side, other settings default)
+/// and a capture of `plan` over it.
+fn capture_of(
+    scene: &Scene,
+    plan: &ScanPlan,
+    system: &System,
+    seed: u64,
+    supersampling: u32,
+) -> Result<Capture> {
+    let settings = TransportSettings {
+        supersampling,
+        ..TransportSettings::default()
+    };
+    let transport = LightTransport::compute(scene, system, &settings).map_err(sim_error)?;
     Capture::new(Arc::new(transport), plan, system, Sensor::default(), seed).map_err(sim_error)
 }
 
@@ -364,7 +379,15 @@ fn run_board(args: Args) -> Result<()> {
             None => staged.path().to_path_buf(),
         };
         let seed = args.seed + i as u64;
-        write_board_pose(&dir, &plan, &system, &sim_board, placement, seed)?;
+        write_board_pose(
+            &dir,
+            &plan,
+            &system,
+            &sim_board,
+            placement,
+            seed,
+            args.supersampling,
+        )?;
         let name = folder.as_deref().unwrap_or("pose");
         eprintln!(
             "{name}: yaw {} pitch {} roll {} deg, centre ({}, {}, {}) mm, seed {seed} ({:.1} s)",
@@ -459,10 +482,11 @@ fn write_board_pose(
     board: &target::Checkerboard,
     placement: &BoardPlacement,
     seed: u64,
+    supersampling: u32,
 ) -> Result<()> {
     let pose = placement.pose(board);
     let scene = Scene::checkerboard(board, &pose);
-    let capture = capture_of(&scene, plan, system, seed)?;
+    let capture = capture_of(&scene, plan, system, seed, supersampling)?;
     write_plan(plan, &dir.join("plan.toml"))?;
     write_calibration(system, &dir.join("calibration.toml"))?;
     write_stack(&capture, plan, dir)?;

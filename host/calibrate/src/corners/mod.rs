@@ -20,11 +20,20 @@
 //!    (perspective and distortion bend the lattice slowly) and accepted within 0.3 of a step.
 //!    The grown grid must hold a complete `inner_columns × inner_rows` block (either way round).
 //! 4. **Orientation** (the board's symmetry ambiguity; see below).
-//! 5. **Sub-pixel**: each corner is refined by the gradient-orthogonality iteration of
-//!    OpenCV's `cornerSubPix` (every image gradient near a corner is perpendicular to the
-//!    vector from the corner, on both edges through it), in a Gaussian-weighted window
-//!    of half-width about half the local square size (2–12 px), sampled on a grid centred on
-//!    the current estimate (bilinear), iterated to 0.001 px.
+//! 5. **Sub-pixel**, in three steps:
+//!    1. the gradient-orthogonality iteration of OpenCV's `cornerSubPix` (every image
+//!       gradient near a corner is perpendicular to the vector from the corner, on both edges
+//!       through it) on the image smoothed by 1.5 px, in a smoothly weighted window of
+//!       3/4 of the local lattice step, iterated to 1e-4 px (`refine`);
+//!    2. from there, a least-squares fit of a model of the corner (two blurred edges, the
+//!       pixel's square footprint, graded light) to the raw pixels of the four squares around
+//!       it (`corners/junction.rs`), with straight edges;
+//!    3. the same fit with each edge bent as its row or column of corners from step 2 is (the
+//!       lens's distortion).
+//!
+//!    A corner whose fit fails its checks keeps the previous step's position. The fit is what
+//!    makes the corners precise enough for the 0.02% calibration (3 to 8 times less error than
+//!    `cornerSubPix` alone: figures in `corners/junction.rs`).
 //!
 //! ## Which corner is (0, 0): the orientation rule
 //!
@@ -50,6 +59,8 @@ use std::fmt;
 use nalgebra::{Matrix2, Point2, Vector2};
 
 use crate::board::Checkerboard;
+
+mod junction;
 
 /// Why no corners were returned.
 #[derive(Clone, Debug, PartialEq)]
@@ -752,7 +763,8 @@ fn refine_all(
             None => p - at(col - dc, row - dr).expect("a board has at least 2 x 2 corners"),
         }
     };
-    let mut out = Vec::with_capacity(order.len());
+    // Pass 1: `cornerSubPix`, then the junction fit with straight edges.
+    let mut first = Vec::with_capacity(order.len());
     for row in 0..r as i64 {
         for col in 0..c as i64 {
             let p = at(col, row).expect("inside the board");
@@ -778,10 +790,30 @@ fn refine_all(
             }
             let shading = Shading::around(image, p, u, v);
             let q = refine(&grad, &smooth, p, radius, shading.as_ref()).ok_or(fail)?;
-            out.push(q);
+            let straight = [Vector2::zeros(); 2];
+            let q = junction::fit(image, q, u, v, straight).unwrap_or(q);
+            first.push((q, u, v));
         }
     }
-    Ok(out)
+    // Pass 2: the same fit with each edge bent as its whole grid line is.
+    let mut bend = vec![[Vector2::zeros(); 2]; first.len()];
+    for row in 0..r {
+        let line: Vec<Point2<f64>> = (0..c).map(|col| first[row * c + col].0).collect();
+        for (col, b) in junction::bends(&line).into_iter().enumerate() {
+            bend[row * c + col][0] = b;
+        }
+    }
+    for col in 0..c {
+        let line: Vec<Point2<f64>> = (0..r).map(|row| first[row * c + col].0).collect();
+        for (row, b) in junction::bends(&line).into_iter().enumerate() {
+            bend[row * c + col][1] = b;
+        }
+    }
+    Ok(first
+        .iter()
+        .zip(&bend)
+        .map(|((q, u, v), b)| junction::fit(image, *q, *u, *v, *b).unwrap_or(*q))
+        .collect())
 }
 
 /// The shading around a corner: how the light and the dark squares' levels change across it
@@ -941,12 +973,29 @@ mod tests {
     use super::*;
 
     /// An X-junction of two lines through `c` at angles `t1`, `t2` (dark 0.05, light 0.85), each
-    /// pixel integrated with n × n samples, lit with a relative gradient `gain` per px along x.
+    /// pixel integrated with 16 × 16 samples, lit with a relative gradient `gain` per px along x.
     fn junction(c: Point2<f64>, t1: f64, t2: f64, gain: f64) -> Vec<f32> {
-        let (w, h, n) = (64, 64, 16);
+        bent_junction(c, t1, t2, gain, 0.0, 16)
+    }
+
+    /// [`junction`] with both edges bent by `kappa` px⁻¹ (`d = n·r − κ/2 (t·r)²`), each pixel
+    /// integrated with `n × n` samples.
+    pub(super) fn bent_junction(
+        c: Point2<f64>,
+        t1: f64,
+        t2: f64,
+        gain: f64,
+        kappa: f64,
+        n: usize,
+    ) -> Vec<f32> {
+        let (w, h) = (64, 64);
         let (a, b) = (
             Vector2::new(-t1.sin(), t1.cos()),
             Vector2::new(-t2.sin(), t2.cos()),
+        );
+        let (ta, tb) = (
+            Vector2::new(t1.cos(), t1.sin()),
+            Vector2::new(t2.cos(), t2.sin()),
         );
         let mut out = vec![0.0f32; w * h];
         for y in 0..h {
@@ -958,7 +1007,9 @@ mod tests {
                             x as f64 + (i as f64 + 0.5) / n as f64 - 0.5 - c.x,
                             y as f64 + (j as f64 + 0.5) / n as f64 - 0.5 - c.y,
                         );
-                        if (a.dot(&p) > 0.0) == (b.dot(&p) > 0.0) {
+                        let da = a.dot(&p) - 0.5 * kappa * ta.dot(&p).powi(2);
+                        let db = b.dot(&p) - 0.5 * kappa * tb.dot(&p).powi(2);
+                        if (da > 0.0) == (db > 0.0) {
                             s += 1.0;
                         }
                     }
