@@ -8,7 +8,7 @@
 //! - two edges through the corner `c`, at angles `θa` (along the board's row, lattice step `u`)
 //!   and `θb` (along its column, step `v`); a pixel's signed distances from them
 //!   `d = n·r − κ/2 (t·r)²` (`r` from the corner, `n`, `t` an edge's normal and direction, `κ`
-//!   its bend);
+//!   its bend, given: see below);
 //! - each edge the step of the board's print blurred by a Gaussian of std `σ` (the optics;
 //!   fitted) and averaged over the pixel's square footprint ([`PixelEdge`], in closed form):
 //!   `E(d)` from −1 to 1; the light share of the pixel `P = ½ (1 + s · E(da) · E(db))`
@@ -22,8 +22,11 @@
 //! (`x = c + α u + β v`): all four squares around the corner, a quarter step short of the next
 //! corners (whose edges the model does not have). Eleven parameters (`c`, `θa`, `θb`, `σ`,
 //! `L0`, `gL`, `D0`, `gD`), Levenberg–Marquardt with the analytic Jacobian, started at the
-//! `cornerSubPix` estimate. The fit is kept only if it converged within 1 px of its start with
-//! a blur under 4 px and some contrast; [`fit`] says `None` otherwise.
+//! `cornerSubPix` estimate, the levels at the means of the pixels more than 0.2 step from both
+//! edges (so a window cut by the image's border still fits), the blur held at 0.05 px or more
+//! (a sharp edge on a pixel border leaves no partial pixel, and the cost no gradient). The fit
+//! is kept only if it converged within 1 px of its start with a blur under 4 px and some
+//! contrast; [`fit`] says `None` otherwise.
 //!
 //! **Why the pixel's square.** An edge along the pixel grid meets every pixel along it at the
 //! same phase, so a profile of the wrong shape (an erf sampled at pixel centres) does not
@@ -33,7 +36,7 @@
 //! the bench: ~3e-5 px⁻¹ 100 px from the image centre). A straight edge fitted over ±17 px of
 //! a bent one is off by `κ · 17²/6` ≈ 0.0015 px, towards the image centre, the same way at
 //! every corner: on the bench, the corners of each board were pulled in by 13 ppm, i.e. a
-//! scale error. Fitting `κ` per corner removes it but doubles the noise. So [`detect`] fits
+//! scale error. Fitting `κ` per corner removes it but raises the noise by half. So [`detect`] fits
 //! twice: first with straight edges, then with each edge bent as its whole grid line of corners
 //! is ([`bends`]: a polynomial through 6–9 corners, ~1e-6 px⁻¹ uncertain).
 //!
