@@ -85,6 +85,25 @@ pub fn simulate(
     sensor: &Sensor,
     seed: u64,
 ) -> Result<Capture, SimError> {
-    let transport = LightTransport::compute(scene, system, &TransportSettings::default())?;
+    simulate_with(
+        patterns,
+        scene,
+        system,
+        sensor,
+        seed,
+        &TransportSettings::default(),
+    )
+}
+
+/// [`simulate`] with the light transport's `settings` (e.g. more rays per pixel).
+pub fn simulate_with(
+    patterns: &impl PatternSequence,
+    scene: &Scene,
+    system: &System,
+    sensor: &Sensor,
+    seed: u64,
+    settings: &TransportSettings,
+) -> Result<Capture, SimError> {
+    let transport = LightTransport::compute(scene, system, settings)?;
     Capture::new(Arc::new(transport), patterns, system, *sensor, seed)
 }

@@ -27,15 +27,11 @@
 //! # let _ = (white, truth);
 //! ```
 
-use std::sync::Arc;
-
 use nalgebra::{Point2, Point3, Rotation3, Vector3};
 use rayon::prelude::*;
 
 use crate::scene::{Material, Scene, Shape, Surface};
-use crate::{
-    Capture, LightTransport, PatternSequence, Sensor, SimError, System, TransportSettings,
-};
+use crate::{PatternSequence, Sensor, SimError, System, TransportSettings};
 
 /// Albedo of the printed dark squares (matte black toner on paper).
 pub const DARK_ALBEDO: f64 = 0.05;
@@ -287,16 +283,16 @@ pub fn white_frame(
         supersampling,
         ..TransportSettings::default()
     };
-    let transport = Arc::new(LightTransport::compute(scene, system, &settings)?);
     let frame = WhiteFrame {
         columns: system.projector_columns() as u16,
     };
-    let capture = Capture::new(
-        transport,
+    let capture = crate::simulate_with(
         &frame,
+        scene,
         system,
-        sensor.copied().unwrap_or_default(),
+        &sensor.copied().unwrap_or_default(),
         seed,
+        &settings,
     )?;
     let w = capture.width() as usize;
     let rows: Vec<Result<Vec<f32>, SimError>> = capture

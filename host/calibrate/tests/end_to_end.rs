@@ -48,10 +48,9 @@ use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::{calibrate, corners, CalibrationSettings, ColumnMap, PoseObservation};
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan};
 use fsm_sim::target::{self, BoardPose};
-use fsm_sim::transport::{LightTransport, TransportSettings};
-use fsm_sim::{Capture, Scene, Sensor, System};
+use fsm_sim::{simulate_with, Scene, Sensor, System, TransportSettings};
 use nalgebra::Point2;
-use std::sync::{Arc, OnceLock};
+use std::sync::OnceLock;
 use support::{plane_deviation, POSES};
 
 const K: usize = 8;
@@ -72,9 +71,8 @@ fn scan(plan: &ScanPlan, scene: &Scene, system: &System, seed: u64) -> (Vec<f32>
         supersampling: SUPERSAMPLING,
         ..TransportSettings::default()
     };
-    let transport = LightTransport::compute(scene, system, &settings).expect("transport");
-    let capture = Capture::new(Arc::new(transport), plan, system, Sensor::default(), seed)
-        .expect("simulates");
+    let capture =
+        simulate_with(plan, scene, system, &Sensor::default(), seed, &settings).expect("simulates");
     let mut tables = vec![0.0; Decoder::tables_len(plan)];
     let decoder = Decoder::new(plan, &mut tables).expect("valid plan");
     let mut scratch = vec![0.0; Decoder::scratch_len(plan)];

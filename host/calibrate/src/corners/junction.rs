@@ -21,7 +21,10 @@
 //! The window is the parallelogram `|α|, |β| ≤ 0.75` of the lattice coordinates
 //! (`x = c + α u + β v`): all four squares around the corner, a quarter step short of the next
 //! corners (whose edges the model does not have). Eleven parameters (`c`, `θa`, `θb`, `σ`,
-//! `L0`, `gL`, `D0`, `gD`), Levenberg–Marquardt with the analytic Jacobian, started at the
+//! `L0`, `gL`, `D0`, `gD`), Levenberg–Marquardt with the analytic Jacobian (its own fixed-size
+//! loop, not [`refine::levenberg_marquardt`](crate::refine::levenberg_marquardt): that one's
+//! numeric Jacobian would cost 22 more passes over the window per iteration, on every corner,
+//! and it has no bound for the blur), started at the
 //! `cornerSubPix` estimate, the levels at the means of the pixels more than 0.2 step from both
 //! edges (so a window cut by the image's border still fits), the blur held at 0.05 px or more
 //! (a sharp edge on a pixel border leaves no partial pixel, and the cost no gradient). The fit
@@ -350,14 +353,12 @@ pub(super) fn fit(
             if let Some(step) = a.cholesky().map(|c| c.solve(&-jtr)) {
                 let mut next = p + step;
                 next[4] = next[4].max(MIN_BLUR_PX);
-                {
-                    let next_cost = model.cost(&next, &pixels);
-                    if next_cost <= cost {
-                        p = next;
-                        cost = next_cost;
-                        lambda = (lambda / 3.0).max(1e-9);
-                        break true;
-                    }
+                let next_cost = model.cost(&next, &pixels);
+                if next_cost <= cost {
+                    p = next;
+                    cost = next_cost;
+                    lambda = (lambda / 3.0).max(1e-9);
+                    break true;
                 }
             }
             lambda *= 4.0;
@@ -380,6 +381,7 @@ pub(super) fn fit(
         && (p[3] - theta_b).abs() < 0.3;
     sane.then(|| start + moved)
 }
+
 /// The bend of a grid line at each of its corners (in order along the line): the second
 /// derivative of the line, px⁻¹, as a vector along its normal, from a polynomial fitted to the
 /// corners (cubic with 6 corners or more, quadratic with 3–5; zero with 2). A straight line

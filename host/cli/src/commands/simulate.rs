@@ -3,7 +3,6 @@
 //! `--scene checkerboard`, scans of a calibration target ready for `fsm calibrate target`.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use fsm_calibrate::board::Checkerboard;
 use fsm_core::ScanPlan;
@@ -13,7 +12,7 @@ use fsm_host::plan_file::{write_plan, Preset};
 use fsm_host::{Error, Result};
 use fsm_sim::scene::presets::NAMES;
 use fsm_sim::target::{self, BoardPose};
-use fsm_sim::{Capture, LightTransport, Scene, Sensor, System, TransportSettings};
+use fsm_sim::{Capture, Scene, Sensor, System, TransportSettings};
 
 /// The scene name of the calibration target (not a preset: it takes a board and a pose).
 pub const CHECKERBOARD: &str = "checkerboard";
@@ -311,8 +310,8 @@ fn capture_of(
         supersampling,
         ..TransportSettings::default()
     };
-    let transport = LightTransport::compute(scene, system, &settings).map_err(sim_error)?;
-    Capture::new(Arc::new(transport), plan, system, Sensor::default(), seed).map_err(sim_error)
+    fsm_sim::simulate_with(plan, scene, system, &Sensor::default(), seed, &settings)
+        .map_err(sim_error)
 }
 
 fn write_calibration(system: &System, path: &Path) -> Result<()> {
