@@ -10,9 +10,9 @@
 //! inside their blocks, else the view further from a block border.
 
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates};
+use crate::peak::PeakList;
+use crate::plan::sequence::Group;
 use crate::plan::{BlockCoding, ScanPlan};
-use crate::search::PeakList;
-use crate::sequence::Group;
 
 /// Whether a local column passes the border guard `[cg, cB − cg]`.
 pub fn in_guard(local_column: f32, coding: &BlockCoding) -> bool {
@@ -26,7 +26,7 @@ pub fn border_margin(local_column: f32, coding: &BlockCoding) -> f32 {
 
 /// Distance from a block border beyond which a group's view of a column is whole: the fit's
 /// columns (`±HALF_WIDTH`) and half a column of light around them lie inside the block.
-const WHOLE_VIEW_MARGIN: f32 = crate::deconvolution::HALF_WIDTH as f32 + 0.5;
+const WHOLE_VIEW_MARGIN: f32 = crate::peak::deconvolution::HALF_WIDTH as f32 + 0.5;
 
 /// One candidate from two groups' views of the same column: where both see it whole, the
 /// amplitude-weighted mean (two independent estimates: √2 less noise); otherwise the view

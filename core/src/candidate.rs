@@ -5,7 +5,7 @@
 
 use heapless::Vec;
 
-use crate::sequence::Group;
+use crate::plan::sequence::Group;
 
 /// One candidate projector column of a pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]

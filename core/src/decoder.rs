@@ -10,13 +10,13 @@ use core::fmt;
 
 use crate::block::{self, MaskLevels};
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
-use crate::deconvolution::FitTable;
-use crate::kernel::{self, Kernel};
-use crate::maxima;
+use crate::peak::deconvolution::FitTable;
+use crate::peak::PeakList;
+use crate::plan::sequence::Group;
 use crate::plan::{Method, PeakSearch, PlanError, ScanPlan, Window};
-use crate::search::{self, PeakList};
-use crate::sequence::Group;
-use crate::spectrum::{self, Spectrum};
+use crate::search::{clean, local_maxima};
+use crate::transform::kernel::{self, Kernel};
+use crate::transform::spectrum::{self, Spectrum};
 
 /// One temporal row of captured frames.
 #[derive(Clone, Copy, Debug)]
@@ -360,8 +360,10 @@ impl<'t> Decoder<'t> {
         let mut residual = Spectrum::new(spectrum, n);
         let (plan, kernel, fits) = (&self.plan, &self.kernel, &self.fits);
         match self.plan.decoding.search {
-            PeakSearch::Clean => search::find_peaks(plan, kernel, fits, &mut residual, rest, out),
-            PeakSearch::LocalMaxima => maxima::find_peaks(plan, kernel, fits, &residual, rest, out),
+            PeakSearch::Clean => clean::find_peaks(plan, kernel, fits, &mut residual, rest, out),
+            PeakSearch::LocalMaxima => {
+                local_maxima::find_peaks(plan, kernel, fits, &residual, rest, out)
+            }
         }
     }
 

@@ -49,26 +49,21 @@
 pub mod block;
 pub mod candidate;
 pub mod decoder;
-pub mod deconvolution;
-pub mod kernel;
 pub mod math;
-pub mod maxima;
 pub mod noise;
 pub mod peak;
 pub mod phase_shift;
 pub mod plan;
 pub mod search;
-pub mod sequence;
-pub mod spectrum;
+pub mod transform;
 pub mod wire;
 
 pub use candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
 pub use decoder::{Decoder, DecoderError, Row, RowError};
-pub use peak::Peak;
+pub use peak::{Peak, PeakList};
 pub use phase_shift::{PatternSequence, PhaseShiftPlan};
+pub use plan::sequence::{Group, Pattern};
 pub use plan::{
     BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
     PeakSearch, PlanError, References, ScanPlan, Window,
 };
-pub use search::PeakList;
-pub use sequence::{Group, Pattern};

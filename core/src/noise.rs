@@ -3,7 +3,7 @@
 use crate::math::ln;
 
 /// Eq. 21: variance of a DFT magnitude bin for samples with noise variance `sigma²`,
-/// `σ²_DFT = σ²/(2M)`, with the spectrum scaled as in [`crate::spectrum`] (no window).
+/// `σ²_DFT = σ²/(2M)`, with the spectrum scaled as in [`crate::transform::spectrum`] (no window).
 pub fn dft_magnitude_variance(sample_variance: f32, fringe_count: usize) -> f32 {
     sample_variance / (2.0 * fringe_count as f32)
 }

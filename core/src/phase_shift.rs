@@ -16,7 +16,7 @@
 use core::fmt;
 
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
-use crate::sequence::Group;
+use crate::plan::sequence::Group;
 
 /// A phase-shift + Gray-code scan.
 #[derive(Clone, Copy, Debug, PartialEq)]

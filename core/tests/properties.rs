@@ -134,7 +134,7 @@ proptest! {
         seed in any::<u64>(),
     ) {
         let plan = plan.with_local_maxima();
-        // Shorter sequences are refused (`maxima::MIN_FRINGES`).
+        // Shorter sequences are refused (`plan::LOCAL_MAXIMA_MIN_FRINGES`).
         prop_assume!(plan.validate().is_ok());
         prop_assert_eq!(ScanPlan::from_bytes(&plan.to_bytes()).unwrap(), plan);
         let cmax = plan.projector_columns as f64;

@@ -35,7 +35,7 @@
 
 use super::{begin_header, crc32, open_header, seal_header, Reader, WireError, Writer, HEADER_LEN};
 use crate::candidate::{Candidate, GroupSet, PixelCandidates, PixelFlags};
-use crate::sequence::Group;
+use crate::plan::sequence::Group;
 
 /// Magic bytes of a candidate file.
 pub const MAGIC: [u8; 8] = *b"FSMCAND\0";

@@ -2,11 +2,16 @@
 //!
 //! Each estimator returns the offset `δ` (in bins) of the true peak from bin `p`, given the
 //! magnitudes `F[p−4..=p+4]` of the peak's isolated spectrum (other peaks removed); the column is
-//! `(p + δ)·L/N`. The deconvolution estimator lives in [`crate::deconvolution`].
+//! `(p + δ)·L/N`. The deconvolution estimator lives in [`deconvolution`].
 
-use crate::deconvolution::ColumnWeights;
+pub mod deconvolution;
+
+use heapless::Vec;
+
 use crate::math::{ln, Complex};
 use crate::plan::PeakEstimator;
+use crate::plan::MAX_PEAKS;
+use deconvolution::ColumnWeights;
 
 /// Half-width plus one of the magnitude neighbourhood the estimators read: Blais–Rioux 8 reads `F[p±5]`.
 pub const NEIGHBOURHOOD: usize = 6;
@@ -26,6 +31,15 @@ pub struct Peak {
     /// The fitted column weights (SPEC §2 local deconvolution); none (`len` 0) when the
     /// local-maximum search measured the peak with a magnitude estimator.
     pub weights: ColumnWeights,
+}
+
+/// Peaks of one spectrum and the noise left in it.
+#[derive(Clone, Debug, Default)]
+pub struct PeakList {
+    /// Peaks in the order found (strongest first).
+    pub peaks: Vec<Peak, MAX_PEAKS>,
+    /// RMS noise of one complex bin of the final residual (spectrum units).
+    pub bin_noise: f32,
 }
 
 /// Magnitudes `F[p−5 ..= p+5]` around a peak bin `p`; bins outside

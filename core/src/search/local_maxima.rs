@@ -1,7 +1,7 @@
 //! The paper's peak search (§III-D, SPEC §2): every local maximum of `|X_k|` above a noise
 //! threshold is a light, found in one pass over the spectrum with nothing subtracted.
 //!
-//! It is the fast alternative to [`crate::search`] (CLEAN), selected by
+//! It is the fast alternative to [`crate::search::clean`] (CLEAN), selected by
 //! [`PeakSearch::LocalMaxima`](crate::plan::PeakSearch): one pass for the powers, one median for
 //! the noise, one pass for the maxima, then a 3-point estimate per peak. What it gives up:
 //! a peak's sidelobes are not removed, so the rectangular window's (−13 dB) pass a relative floor
@@ -17,14 +17,13 @@
 
 use heapless::Vec;
 
-use crate::deconvolution::FitDomain;
-use crate::deconvolution::{ColumnWeights, FitTable};
-use crate::kernel::Kernel;
-use crate::math::{round, sqrt};
-use crate::peak::{self, magnitude_neighbourhood, mirrored_bin, offset, Peak};
+use super::MEDIAN_SAMPLES;
+use crate::math::{round, select, sqrt};
+use crate::peak::deconvolution::{ColumnWeights, Fit, FitDomain, FitTable};
+use crate::peak::{self, magnitude_neighbourhood, mirrored_bin, offset, Peak, PeakList};
 use crate::plan::{PeakEstimator, ScanPlan, Window, MAX_PEAKS};
-use crate::search::{self, PeakList};
-use crate::spectrum::Spectrum;
+use crate::transform::kernel::Kernel;
+use crate::transform::spectrum::Spectrum;
 
 /// The local maxima of `spectrum` that stand above the plan's floors, strongest first, at most
 /// `max_peaks`, written to `out`. `scratch` holds at least `N/2 + 1` floats (the powers).
@@ -103,8 +102,8 @@ pub(crate) fn find_peaks(
 /// 3 columns (the border guard's allowance), over every `stride`-th bin: zero padding
 /// correlates bins closer than `N/M`, and the Hann window correlates neighbours of those (by
 /// 2/3), so `stride = N/M`, twice that with Hann, but small enough to keep about 16 bins and
-/// large enough for at most [`search::MEDIAN_SAMPLES`]. Without the exclusion a short sequence's
-/// broad peak would fill the median and hide itself; [`MIN_FRINGES`] keeps room beside it.
+/// large enough for at most [`MEDIAN_SAMPLES`]. Without the exclusion a short sequence's
+/// broad peak would fill the median and hide itself; [`crate::plan::LOCAL_MAXIMA_MIN_FRINGES`] keeps room beside it.
 fn noise_and_powers(plan: &ScanPlan, spectrum: &Spectrum<'_>, powers: &mut [f32]) -> f32 {
     let mut strongest = (0, -1.0f32);
     for (k, (p, x)) in powers
@@ -125,10 +124,10 @@ fn noise_and_powers(plan: &ScanPlan, spectrum: &Spectrum<'_>, powers: &mut [f32]
     };
     let stride = independent
         .min((bins / 16).max(1))
-        .max(bins.div_ceil(search::MEDIAN_SAMPLES));
+        .max(bins.div_ceil(MEDIAN_SAMPLES));
     let lobe = ((lobe_steps * plan.column_resolution() + 3.0) / plan.bin_width()) as usize;
     // Not zeroed first: filling 128 keys costs as much as the median itself on the camera.
-    let mut keys: Vec<i32, { search::MEDIAN_SAMPLES }> = Vec::new();
+    let mut keys: Vec<i32, { MEDIAN_SAMPLES }> = Vec::new();
     for (k, &p) in powers.iter().enumerate().step_by(stride) {
         // Powers are sums of squares, never negative or NaN: their bits order like them.
         if k.abs_diff(strongest.0) > lobe && keys.push(p.to_bits() as i32).is_err() {
@@ -144,18 +143,13 @@ fn noise_and_powers(plan: &ScanPlan, spectrum: &Spectrum<'_>, powers: &mut [f32]
         }
     }
     let sampled = keys.len();
-    let median = f32::from_bits(search::select(&mut keys, sampled / 2) as u32);
+    let median = f32::from_bits(select(&mut keys, sampled / 2) as u32);
     sqrt(median / core::f32::consts::LN_2)
 }
 
-/// Fewest fringes of a plan decoded with the local-maximum search: with fewer, a light's main
-/// lobe (four resolution steps with Hann) and its blur fill most of the spectrum, and no bins
-/// beside it measure the noise.
-pub const MIN_FRINGES: u16 = 32;
-
 /// The peak at local maximum `bin`. Its amplitude is `2·|X|` at the vertex of the parabola
 /// through the three magnitudes around it (a lit column of modulation `B` peaks at `B/2`,
-/// [`crate::spectrum`]), for every estimator, so the floors judge every peak alike. Its column
+/// [`crate::transform::spectrum`]), for every estimator, so the floors judge every peak alike. Its column
 /// is the plan's estimator's; the deconvolution estimator fits the local column weights on the
 /// spectrum as it is and reports their centroid where it lies within a bin of the maximum (a
 /// fit centred on a sidelobe is not a light, so it is not trusted over the magnitudes), else
@@ -187,7 +181,7 @@ fn describe(
         PeakEstimator::Deconvolution => {
             let vertex = (bin as f32 + x) * domain.bin_width;
             let centre = round(bin as f32 * domain.bin_width) as i32;
-            match search::fit_recentred(kernel, table, spectrum, centre) {
+            match Fit::solve_recentred(kernel, table, spectrum, centre) {
                 Some((fit, _))
                     if fit
                         .weights

@@ -4,7 +4,7 @@
 //! Around a peak near integer column `j₀`, the unknowns are the real weights `w_j`,
 //! `j = j₀−3..=j₀+3` (inside the span), and the data the complex bins within about ±5 columns
 //! of them.
-//! The model `X_k = Σ_j w_j b_j(k)` ([`crate::kernel`]) is exact for light that comes from
+//! The model `X_k = Σ_j w_j b_j(k)` ([`crate::transform::kernel`]) is exact for light that comes from
 //! integer columns, which is what a projector emits: a camera footprint and the projector's
 //! defocus only spread it over neighbouring columns. Light is never negative, so the weights
 //! are the non-negative least-squares solution (Lawson–Hanson on the 7×7 normal equations, in
@@ -15,10 +15,10 @@
 // Index loops read best in the small dense linear algebra below.
 #![allow(clippy::needless_range_loop)]
 
-use crate::kernel::{ColumnLookup, ColumnTerms, Kernel, Model};
 use crate::math::Complex;
 use crate::plan::ScanPlan;
-use crate::spectrum::Spectrum;
+use crate::transform::kernel::{self, ColumnLookup, ColumnTerms, Kernel, Model};
+use crate::transform::spectrum::Spectrum;
 
 /// Columns on each side of the centre column that carry a weight (±3 measured better than the
 /// SPEC's ±2: a 1-column defocus blur puts 1% of the light 3 columns out).
@@ -30,6 +30,7 @@ pub const FIT_COLUMNS: usize = (2 * HALF_WIDTH + 1) as usize;
 pub const WIDE_HALF_WIDTH: i32 = 6;
 /// Most weights of one peak (a widened fit).
 pub const MAX_COLUMNS: usize = (2 * WIDE_HALF_WIDTH + 1) as usize;
+const _: () = assert!(MAX_COLUMNS <= kernel::MAX_COLUMNS);
 /// Most weights of a joint fit of two close peaks.
 pub const MAX_JOINT_COLUMNS: usize = 2 * FIT_COLUMNS + 2;
 /// Bins further than this from the fitted columns (in columns) are not used by the fit…
@@ -42,6 +43,8 @@ pub const MAX_BINS: usize = 64;
 const EDGE_SHARE: f32 = 0.02;
 /// A rise of this share of the maximum after a fall makes the weights a second light.
 const MODE_TOLERANCE: f32 = 0.1;
+/// Re-centre a fit when its centroid is further than this from its centre column.
+const RECENTRE_DISTANCE: f32 = 0.75;
 /// Ridge added to the normal equations, relative to their mean diagonal.
 const RIDGE: f64 = 1e-6;
 
@@ -133,6 +136,26 @@ impl FitDomain {
 }
 
 impl Fit {
+    /// Fits at `centre`, then once or twice more at the rounded centroid if it moved away;
+    /// returns the fit and the centre it was fitted at.
+    pub fn solve_recentred(
+        kernel: &Kernel<'_>,
+        table: &FitTable<'_>,
+        spectrum: &Spectrum<'_>,
+        mut centre: i32,
+    ) -> Option<(Fit, i32)> {
+        let mut fit = Fit::solve(kernel, table, spectrum, centre)?;
+        for _ in 0..2 {
+            let centroid = fit.weights.centroid()?;
+            if (centroid - centre as f32).abs() <= RECENTRE_DISTANCE {
+                break;
+            }
+            centre = crate::math::round(centroid) as i32;
+            fit = Fit::solve(kernel, table, spectrum, centre)?;
+        }
+        Some((fit, centre))
+    }
+
     /// Non-negative least-squares weights of columns `centre−3..=centre+3` (inside the span)
     /// from `spectrum`, with the centre's precomputed operator.
     pub fn solve(

@@ -9,7 +9,9 @@
 
 use core::fmt;
 
-use crate::sequence::Group;
+pub mod sequence;
+
+use sequence::Group;
 
 /// Smallest supported transform size `N`.
 pub const MIN_TRANSFORM_SIZE: usize = 64;
@@ -23,6 +25,10 @@ pub const MAX_PEAKS: usize = 8;
 pub const MAX_PROJECTOR_COLUMNS: u16 = 16384;
 /// Fewest fringe patterns of a group: below this the noise estimate of a pixel is meaningless.
 pub const MIN_FRINGE_COUNT: u16 = 16;
+/// Fewest fringes of a plan decoded with the local-maximum search: with fewer, a light's main
+/// lobe (four resolution steps with Hann) and its blur fill most of the spectrum, and no bins
+/// beside it measure the noise.
+pub const LOCAL_MAXIMA_MIN_FRINGES: u16 = 32;
 
 /// One complete scan: what the projector shows and what the decoder assumes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,11 +170,11 @@ pub enum PeakEstimator {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum PeakSearch {
-    /// Strongest peak, fit, subtract its modelled spectrum, repeat ([`crate::search`]).
+    /// Strongest peak, fit, subtract its modelled spectrum, repeat ([`crate::search::clean`]).
     #[default]
     Clean,
     /// Every local maximum of `|X_k|` above the noise and relative floors, one pass, nothing
-    /// subtracted ([`crate::maxima`]).
+    /// subtracted ([`crate::search::local_maxima`]).
     LocalMaxima,
 }
 
@@ -296,7 +302,7 @@ pub enum PlanError {
     MaxPeaks { max_peaks: u8 },
     /// A decoder threshold is negative or not finite.
     DecodeThreshold { field: &'static str, value: f32 },
-    /// The local-maximum search needs [`crate::maxima::MIN_FRINGES`] fringes.
+    /// The local-maximum search needs [`LOCAL_MAXIMA_MIN_FRINGES`] fringes.
     LocalMaximaTooFewFringes { count: u16, min: u16 },
 }
 
@@ -549,7 +555,7 @@ impl ScanPlan {
                 return Err(PlanError::DecodeThreshold { field, value });
             }
         }
-        let min = crate::maxima::MIN_FRINGES;
+        let min = LOCAL_MAXIMA_MIN_FRINGES;
         if d.search == PeakSearch::LocalMaxima && band.count < min {
             return Err(PlanError::LocalMaximaTooFewFringes {
                 count: band.count,

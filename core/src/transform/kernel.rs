@@ -21,10 +21,9 @@
 //! `2rN + ((−⌊t₀/q⌋) mod N) + k`. Removing a peak from the spectrum is then a handful of
 //! complex AXPYs over contiguous runs.
 
-use crate::deconvolution::MAX_COLUMNS;
+use super::spectrum::Spectrum;
 use crate::math::Complex;
 use crate::plan::{ScanPlan, Window};
-use crate::spectrum::Spectrum;
 
 /// Tabulated `G(u)` of a plan, borrowed from caller storage.
 #[derive(Clone, Copy, Debug)]
@@ -64,6 +63,9 @@ pub struct ColumnLookup {
     phase: Complex,
     mean: f32,
 }
+
+/// Most weighted columns one [`Model`] combines (a widened fit's, `crate::peak::deconvolution`).
+pub const MAX_COLUMNS: usize = 13;
 
 /// Most terms of a [`Model`]: a direct and a mirror term per column, and the mean term.
 const MODEL_TERMS: usize = 2 * MAX_COLUMNS + 1;

@@ -5,7 +5,7 @@
 //! Pattern generation, the simulator and the decoder all read frames through this module, so
 //! they cannot disagree on what frame `i` is or on its intensity at column `c`.
 
-use crate::plan::{Method, ScanPlan};
+use super::{Method, ScanPlan};
 
 /// An EFSM pattern group (SPEC §3); BFSM uses [`Group::One`] only.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -6,7 +6,7 @@
 //!
 //! 1. take the strongest bin of the residual; stop if it is below the plan's relative floor
 //!    times the strongest peak or the absolute floor;
-//! 2. fit the local column weights there ([`crate::deconvolution`]), re-centring on the
+//! 2. fit the local column weights there ([`crate::peak::deconvolution`]), re-centring on the
 //!    fitted centroid, and subtract the fitted model from every bin;
 //! 3. keep the peak if its modelled magnitude exceeds `noise_factor ×` the bin noise RMS of
 //!    what is left, else restore it and stop;
@@ -21,26 +21,17 @@
 
 use heapless::Vec;
 
-use crate::deconvolution::{Fit, FitDomain, FitTable, HALF_WIDTH};
-use crate::kernel::Kernel;
-use crate::math::{round, sqrt};
-use crate::peak::{neighbourhood, offset, Peak};
+use crate::math::{round, select, sqrt, total_order_key};
+use crate::peak::deconvolution::{Fit, FitDomain, FitTable, HALF_WIDTH};
+use crate::peak::{neighbourhood, offset, Peak, PeakList};
 use crate::plan::{PeakEstimator, ScanPlan, MAX_PEAKS};
-use crate::spectrum::Spectrum;
+use crate::transform::kernel::Kernel;
+use crate::transform::spectrum::Spectrum;
+
+use super::MEDIAN_SAMPLES;
 
 /// Refinement passes over close peaks.
 const REFINE_PASSES: usize = 1;
-/// Re-centre a fit when its centroid is further than this from its centre column.
-const RECENTRE_DISTANCE: f32 = 0.75;
-
-/// Peaks of one spectrum and the noise left in it.
-#[derive(Clone, Debug, Default)]
-pub struct PeakList {
-    /// Peaks in the order found (strongest first).
-    pub peaks: Vec<Peak, MAX_PEAKS>,
-    /// RMS noise of one complex bin of the final residual (spectrum units).
-    pub bin_noise: f32,
-}
 
 /// Finds the peaks of `residual` (which it leaves as the residual) and writes them to `out`.
 /// `scratch` holds at least `N/2 + 1` floats.
@@ -68,7 +59,7 @@ pub(crate) fn find_peaks(
             break;
         }
         let centre = round(peak_bin as f32 * domain.bin_width) as i32;
-        let Some((narrow, centre)) = fit_recentred(kernel, table, residual, centre) else {
+        let Some((narrow, centre)) = Fit::solve_recentred(kernel, table, residual, centre) else {
             break;
         };
         if narrow.clipped(&domain) {
@@ -161,7 +152,7 @@ fn fit_centred(
     domain: &FitDomain,
     centre: i32,
 ) -> Option<Fit> {
-    let (fit, centre) = fit_recentred(kernel, table, residual, centre)?;
+    let (fit, centre) = Fit::solve_recentred(kernel, table, residual, centre)?;
     Some(widened(kernel, residual, domain, centre, fit))
 }
 
@@ -194,26 +185,6 @@ fn both_above_noise(
     let next_norm = next.model(kernel, next_bin).norm();
     next.apply(kernel, residual, 1.0);
     norm.min(next_norm) > settings.noise_factor * noise
-}
-
-/// Fits at `centre`, then once or twice more at the rounded centroid if it moved away; returns
-/// the fit and the centre it was fitted at.
-pub(crate) fn fit_recentred(
-    kernel: &Kernel<'_>,
-    table: &FitTable<'_>,
-    residual: &Spectrum<'_>,
-    mut centre: i32,
-) -> Option<(Fit, i32)> {
-    let mut fit = Fit::solve(kernel, table, residual, centre)?;
-    for _ in 0..2 {
-        let centroid = fit.weights.centroid()?;
-        if (centroid - centre as f32).abs() <= RECENTRE_DISTANCE {
-            break;
-        }
-        centre = round(centroid) as i32;
-        fit = Fit::solve(kernel, table, residual, centre)?;
-    }
-    Some((fit, centre))
 }
 
 /// `fit` (centred on `centre`), widened if it leaves light at the edge of its window.
@@ -434,111 +405,4 @@ fn noise_without(kernel: &Kernel<'_>, residual: &Spectrum<'_>, fit: &Fit) -> f32
     }
     let median = f32::from_bits(select(&mut keys[..sampled], sampled / 2) as u32);
     sqrt(median / core::f32::consts::LN_2)
-}
-
-/// Most bins the noise median is taken over.
-pub(crate) const MEDIAN_SAMPLES: usize = 128;
-
-/// An integer whose order is `f32::total_cmp`'s, and whose bits are the float's for `x ≥ +0`.
-#[inline]
-pub(crate) fn total_order_key(x: f32) -> i32 {
-    let bits = x.to_bits() as i32;
-    bits ^ (((bits >> 31) as u32) >> 1) as i32
-}
-
-/// The `k`-th smallest of `v` (which it reorders), by Wirth's selection with a median-of-three
-/// pivot: the element a sort would put at `k`, without sorting. `k < v.len()`.
-pub(crate) fn select(v: &mut [i32], k: usize) -> i32 {
-    let k = k as isize;
-    let (mut lo, mut hi) = (0isize, v.len() as isize - 1);
-    while lo < hi {
-        let mid = lo + (hi - lo) / 2;
-        let (a, b, c) = (v[lo as usize], v[mid as usize], v[hi as usize]);
-        // An element of the range, so the scans below stop inside it.
-        let pivot = a.max(b).min(a.min(b).max(c));
-        let (mut i, mut j) = (lo, hi);
-        while i <= j {
-            while v[i as usize] < pivot {
-                i += 1;
-            }
-            while pivot < v[j as usize] {
-                j -= 1;
-            }
-            if i <= j {
-                v.swap(i as usize, j as usize);
-                i += 1;
-                j -= 1;
-            }
-        }
-        // Now v[lo..=j] ≤ pivot ≤ v[i..=hi], and everything between equals the pivot.
-        if j < k {
-            lo = i;
-        }
-        if k < i {
-            hi = j;
-        }
-    }
-    v[k as usize]
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn select_finds_what_a_sort_puts_there() {
-        let mut state = 12345u64;
-        for len in 1..=130usize {
-            for round in 0..20 {
-                let mut v: [i32; 130] = core::array::from_fn(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    // Few distinct values in some rounds: ties.
-                    let r = (state >> 33) as i32;
-                    if round % 3 == 0 {
-                        r % 5
-                    } else {
-                        r
-                    }
-                });
-                if round % 7 == 1 {
-                    v[..len].sort_unstable();
-                }
-                if round % 7 == 2 {
-                    v[..len].sort_unstable_by(|a, b| b.cmp(a));
-                }
-                let mut sorted = v;
-                sorted[..len].sort_unstable();
-                for k in [0, len / 2, len - 1] {
-                    let mut w = v;
-                    assert_eq!(select(&mut w[..len], k), sorted[k], "len {len} k {k}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn total_order_key_orders_like_total_cmp() {
-        let values = [
-            0.0f32,
-            1e-40,
-            1.0,
-            2.5,
-            1e30,
-            f32::INFINITY,
-            f32::NAN,
-            3.0e-20,
-        ];
-        for a in values {
-            for b in values {
-                assert_eq!(
-                    total_order_key(a).cmp(&total_order_key(b)),
-                    a.total_cmp(&b),
-                    "{a} {b}"
-                );
-            }
-        }
-        assert_eq!(f32::from_bits(total_order_key(2.5) as u32), 2.5);
-    }
 }
