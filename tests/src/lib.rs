@@ -12,7 +12,7 @@
 //! | irradiance of a pinhole projector, the blurred column profile | [`radiometry`] |
 //! | per pixel: sparse (column, weight) light transport, computed once per scene | [`transport`] |
 //! | ground truth: 3D point, direct column (SPEC §7), interreflection mask | [`truth`] |
-//! | what the projector shows | [`patterns`] |
+//! | what the projector shows | [`PatternSequence`] (fsm-core's trait, re-exported) |
 //! | frames → sensor codes, row by row; row dumps | [`capture`], [`sensor`] |
 //!
 //! ## Why a pixel's light is a short list of columns
