@@ -3,16 +3,17 @@
 //! Renders the captures of any pattern sequence — every FSM [`fsm_core::ScanPlan`], through its
 //! one pattern function — with ground truth, and models the interreflections the Frequency
 //! Shift Method exists for: a planar mirror (the exact virtual-projector construction) and
-//! one-bounce diffuse interreflection between facets (integrated numerically).
+//! one-bounce interreflection between diffuse or glossy-metal facets (integrated numerically;
+//! the metal's Cook–Torrance BRDF: [`scene::brdf`]).
 //!
 //! | concept | module |
 //! |---|---|
 //! | the scanner: calibration (SPEC §5), projector blur, gamma, reference white | [`system`] |
-//! | scenes: surfaces, materials, presets | [`scene`] |
+//! | scenes: surfaces, materials (the glossy metal's BRDF), presets | [`scene`] |
 //! | irradiance of a pinhole projector, the blurred column profile | [`radiometry`] |
 //! | per pixel: sparse (column, weight) light transport, computed once per scene | [`transport`] |
 //! | ground truth: 3D point, direct column (SPEC §7), interreflection mask | [`truth`] |
-//! | what the projector shows | [`patterns`] |
+//! | what the projector shows | [`PatternSequence`] (fsm-core's trait, re-exported) |
 //! | frames → sensor codes, row by row; row dumps | [`capture`], [`sensor`] |
 //!
 //! ## Why a pixel's light is a short list of columns

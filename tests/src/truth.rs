@@ -7,6 +7,8 @@ pub enum SurfaceClass {
     Background,
     /// A diffuse surface: the pixel measures it.
     Diffuse,
+    /// A glossy (rough metal) surface: the pixel measures it, through its BRDF.
+    Glossy,
     /// A mirror's front: the pixel sees other surfaces through it, never its own point.
     Mirror,
     /// A black surface or a mirror's back.
@@ -28,8 +30,8 @@ pub struct PixelTruth {
     pub direct_column: f64,
     /// Direct light over the pixel's footprint under a full-on frame, reference whites.
     pub direct: f32,
-    /// Indirect light (through mirrors, diffuse interreflection) under a full-on frame,
-    /// reference whites.
+    /// Indirect light (through mirrors, interreflection off diffuse or glossy surfaces) under a
+    /// full-on frame, reference whites.
     pub indirect: f32,
     /// The footprint is not uniform: it straddles surfaces, the background or a shadow edge,
     /// so its light mixes more than the neighbourhood of one column.

@@ -1,6 +1,7 @@
-//! Scenes: surfaces in the camera frame (mm), ambient light, and which diffuse surfaces
-//! exchange light. Presets are in [`presets`].
+//! Scenes: surfaces in the camera frame (mm), ambient light, and which diffuse or glossy
+//! surfaces exchange light. Materials' reflection: [`brdf`]; presets: [`presets`].
 
+pub mod brdf;
 pub mod presets;
 pub mod shape;
 
@@ -18,11 +19,12 @@ pub struct Scene {
     pub surfaces: Vec<Surface>,
     /// Uniform ambient irradiance as a fraction of the reference white irradiance (see
     /// [`crate::System::reference_distance_mm`]); it adds `albedo · ambient` to every diffuse
-    /// point, pattern-independent.
+    /// point and `R · ambient` to a glossy one (`R` its directional albedo towards the camera),
+    /// pattern-independent.
     pub ambient: f64,
-    /// Diffuse rectangles whose light (from the projector, one bounce) reaches the other diffuse
-    /// surfaces: the diffuse interreflection integrated numerically by the simulator. Indices
-    /// into `surfaces`.
+    /// Diffuse or glossy rectangles whose light (from the projector, one bounce) reaches the
+    /// other diffuse or glossy surfaces: the interreflection integrated numerically by the
+    /// simulator. Indices into `surfaces`.
     pub diffuse_emitters: Vec<usize>,
 }
 

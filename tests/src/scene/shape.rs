@@ -1,7 +1,9 @@
 //! Surfaces the simulator traces: rectangles, spheres and the two colours of a printed
-//! checkerboard, with their materials.
+//! checkerboard, with their materials (the glossy one's BRDF: [`super::brdf`]).
 
 use nalgebra::{Point3, Unit, Vector3};
+
+use super::brdf::CookTorrance;
 
 /// Rays shorter than this (mm) do not hit: keeps a ray leaving a surface off that surface.
 pub const RAY_EPSILON_MM: f64 = 1e-6;
@@ -91,6 +93,14 @@ pub enum Material {
         /// Hemispherical reflectance.
         albedo: f64,
     },
+    /// Rough metal on both sides: the Cook–Torrance GGX BRDF of [`CookTorrance`] with
+    /// Schlick reflectance `f0` at normal incidence and GGX roughness `roughness` (`α`).
+    Glossy {
+        /// Reflectance at normal incidence, `F₀ ∈ [0, 1]`.
+        f0: f64,
+        /// GGX `α` (0.2: a rough, brushed metal).
+        roughness: f64,
+    },
     /// A perfect mirror on the front side with reflectance `reflectance`; black behind.
     Mirror {
         /// Fraction of light reflected.
@@ -98,6 +108,44 @@ pub enum Material {
     },
     /// Absorbs everything (a covered mirror, a light trap); still occludes.
     Black,
+}
+
+impl Material {
+    /// `π·f_r`, the BRDF relative to a white Lambertian surface (the albedo of a diffuse
+    /// surface), for unit directions to the light and to the viewer on the side of the unit
+    /// normal `n`: a point lit with `E` reference whites of irradiance sends the camera
+    /// `relative_brdf · E` reference whites. 0 for mirrors (a delta) and black surfaces.
+    pub fn relative_brdf(
+        &self,
+        n: &Vector3<f64>,
+        to_light: &Vector3<f64>,
+        to_viewer: &Vector3<f64>,
+    ) -> f64 {
+        if let Some(brdf) = self.cook_torrance() {
+            return std::f64::consts::PI * brdf.value(n, to_light, to_viewer);
+        }
+        match *self {
+            Material::Diffuse { albedo } => albedo,
+            _ => 0.0,
+        }
+    }
+
+    /// The BRDF of a glossy material; `None` for the others.
+    pub fn cook_torrance(&self) -> Option<CookTorrance> {
+        match *self {
+            Material::Glossy { f0, roughness } => Some(CookTorrance {
+                f0,
+                alpha: roughness,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Whether the camera measures the surface: it scatters light (diffuse or glossy), so a
+    /// camera ray ends there.
+    pub fn scatters(&self) -> bool {
+        matches!(self, Material::Diffuse { .. } | Material::Glossy { .. })
+    }
 }
 
 /// A named surface of a scene.

@@ -1,26 +1,40 @@
-//! One-bounce diffuse interreflection: the projector's light that a diffuse rectangle (an
-//! emitter, e.g. a facet of the V-groove) reflects onto another diffuse point, integrated
-//! numerically over the emitter.
+//! One-bounce interreflection: the projector's light that a diffuse or glossy rectangle (an
+//! emitter, e.g. a facet of the V-groove) reflects onto another diffuse or glossy point,
+//! integrated numerically over the emitter.
 //!
-//! A point `Y` of the emitter lit directly with reference-white signal `s(Y)` (albedo
-//! included) has radiance `s(Y)·E_ref/π`; a receiver point `X` of albedo `ρ` then sends the
-//! camera `(ρ/π) ∫ s(Y) cos θ_X cos θ_Y / r² dA` reference whites, and that light carries the
-//! column `u(Y)` of each emitting point. The emitter is cut into cells one projector column
-//! wide across its columns and `cell_mm` long along them; cells are merged pairwise along the
-//! columns into a hierarchy, and a receiver point uses the coarsest cells whose length is below
-//! `distance_ratio ×` their distance (midpoint rule; cells too close to the receiver — near a
-//! concave corner, where the kernel is singular — are subdivided on the fly). Each cell's light
-//! goes to its flux-weighted column with linear interpolation between the two nearest columns
-//! before the projector blur is applied, which widens the blur of this diffuse light by at
-//! most a sixth of a column² in variance.
+//! A point `Y` of the emitter lit directly with irradiance `E(Y)` (reference whites) has
+//! radiance `g_Y·E(Y)·E_ref/π` towards `X`, with `g_Y = π·f_r` its BRDF relative to a white
+//! Lambertian surface ([`Material::relative_brdf`]) from the projector to `X`; the receiver
+//! point `X` then sends the camera
+//! `π ∫ f_X(X→Y, X→camera) · g_Y(Y→O, Y→X) · E(Y) · cos θ_X cos θ_Y / r² dA` reference whites,
+//! and that light carries the column `u(Y)` of each emitting point. For two Lambertian surfaces
+//! this is `(ρ_X/π) ∫ ρ_Y E(Y) cos θ_X cos θ_Y / r² dA`; a glossy end weights the integral by
+//! its lobe, evaluated per cell at both ends of the bounce.
+//!
+//! The emitter is cut into cells one projector column wide across its columns and `cell_mm`
+//! long along them; cells are merged pairwise along the columns into a hierarchy, and a
+//! receiver point uses the coarsest cells whose length is below `ratio ×` their distance
+//! (midpoint rule; cells too close to the receiver — near a concave corner, where the kernel is
+//! singular — are subdivided on the fly). `ratio` is `distance_ratio` between Lambertian
+//! surfaces, whose kernel varies with the distance only; with a glossy end it is at most
+//! `lobe_ratio × α`, so that a cell spans a fraction of the lobe's angular width (`≈ α` rad in
+//! the half vector) wherever it lies. Each cell's light goes to its flux-weighted column with
+//! linear interpolation between the two nearest columns before the projector blur is applied,
+//! which widens the blur of this light by at most a sixth of a column² in variance.
+
+use std::f64::consts::PI;
 
 use fsm_geometry::Calibration;
-use nalgebra::{Point3, Unit, Vector3};
+use nalgebra::{Point3, Vector3};
 
+use super::paths::DiffusePoint;
 use crate::radiometry::lambertian_signal;
 use crate::scene::{Material, Scene, Shape};
 
-/// Resolution of the diffuse integration.
+/// Default [`GatherSettings::lobe_ratio`]: cells of a tenth of the distance at α = 0.2.
+const LOBE_RATIO: f64 = 0.5;
+
+/// Resolution of the interreflection integration.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GatherSettings {
     /// Width of the finest cells across the projector columns, columns.
@@ -29,6 +43,9 @@ pub struct GatherSettings {
     pub cell_mm: f64,
     /// A cell is used whole when its size is below this fraction of its distance.
     pub distance_ratio: f64,
+    /// With a glossy end of roughness `α`, a cell is used whole when its size is below
+    /// `lobe_ratio · α ×` its distance (and below `distance_ratio ×`).
+    pub lobe_ratio: f64,
 }
 
 impl Default for GatherSettings {
@@ -37,6 +54,7 @@ impl Default for GatherSettings {
             cell_columns: 1.0,
             cell_mm: 2.0,
             distance_ratio: 0.5,
+            lobe_ratio: LOBE_RATIO,
         }
     }
 }
@@ -45,7 +63,7 @@ impl Default for GatherSettings {
 struct Cell {
     /// Flux-weighted centre (geometric centre when unlit).
     point: Point3<f64>,
-    /// `Σ s(Y)·area`, reference white · mm².
+    /// `Σ E(Y)·area`, reference white · mm², times the albedo of a diffuse emitter.
     flux: f64,
     /// Flux-weighted column.
     column: f64,
@@ -60,6 +78,11 @@ pub struct Emitter {
     surface: usize,
     /// Unit normal of the side the projector lights.
     lit_normal: Vector3<f64>,
+    /// The projector centre, where a glossy emitter's light comes from.
+    projector_mm: Point3<f64>,
+    /// Diffuse (its albedo is in the cells' flux) or glossy (its BRDF is evaluated per cell and
+    /// receiver).
+    material: Material,
     across: usize,
     levels: Vec<Vec<Cell>>,
     /// Half extents of a finest cell (across, along), for near-field subdivision.
@@ -68,7 +91,7 @@ pub struct Emitter {
 }
 
 impl Emitter {
-    /// Cells of a diffuse rectangle lit by the projector; `None` for other surfaces.
+    /// Cells of a diffuse or glossy rectangle lit by the projector; `None` for other surfaces.
     pub fn build(
         scene: &Scene,
         surface: usize,
@@ -77,8 +100,10 @@ impl Emitter {
         settings: &GatherSettings,
     ) -> Option<Emitter> {
         let s = scene.surfaces.get(surface)?;
-        let Material::Diffuse { albedo } = s.material else {
-            return None;
+        let albedo = match s.material {
+            Material::Diffuse { albedo } => albedo,
+            Material::Glossy { .. } => 1.0,
+            _ => return None,
         };
         let Shape::Rectangle {
             centre,
@@ -188,6 +213,8 @@ impl Emitter {
         Some(Emitter {
             surface,
             lit_normal,
+            projector_mm: o,
+            material: s.material,
             across,
             levels,
             half_across,
@@ -200,24 +227,25 @@ impl Emitter {
         self.surface
     }
 
-    /// Adds to `profile[j]` (columns, before blur) the light this emitter sends to the
-    /// receiver `(x, n_x)` of albedo `albedo`, scaled by `weight`.
-    #[allow(clippy::too_many_arguments)]
+    /// Adds to `profile[j]` (columns, before blur) the light this emitter sends to the camera
+    /// through the receiver point `at`, scaled by `weight`; returns its total.
     pub fn gather(
         &self,
         scene: &Scene,
-        receiver: usize,
-        x: &Point3<f64>,
-        n_x: &Unit<Vector3<f64>>,
-        albedo: f64,
+        at: &DiffusePoint,
         weight: f64,
         settings: &GatherSettings,
         profile: &mut [f64],
     ) -> f64 {
-        if receiver == self.surface {
+        if at.surface == self.surface {
             return 0.0;
         }
-        let scale = weight * albedo / std::f64::consts::PI;
+        let ratio = [at.material, self.material]
+            .iter()
+            .filter_map(Material::cook_torrance)
+            .fold(settings.distance_ratio, |r, b| {
+                r.min(settings.lobe_ratio * b.alpha)
+            });
         let mut total = 0.0;
         let top = self.levels.len() - 1;
         let mut stack: Vec<(usize, usize)> = Vec::with_capacity(64);
@@ -233,19 +261,19 @@ impl Emitter {
                 if cell.flux <= 0.0 {
                     continue;
                 }
-                let distance = (cell.point - x).norm();
-                if cell.size_mm > settings.distance_ratio * distance && level > 0 {
+                let max_size_mm = ratio * (cell.point - at.point).norm();
+                if cell.size_mm > max_size_mm && level > 0 {
                     stack.push((level - 1, 2 * j));
                     stack.push((level - 1, 2 * j + 1));
                     continue;
                 }
-                let e = if level == 0 && cell.size_mm > settings.distance_ratio * distance {
-                    self.near_field(scene, receiver, x, n_x, &cell, distance, settings)
+                let e = if cell.size_mm > max_size_mm {
+                    self.near_field(scene, at, &cell, max_size_mm)
                 } else {
-                    self.kernel(scene, receiver, x, n_x, &cell.point) * cell.flux
+                    self.kernel(scene, at, &cell.point) * cell.flux
                 };
                 if e > 0.0 {
-                    let c = e * scale;
+                    let c = e * weight;
                     total += c;
                     deposit_linear(profile, cell.column, c);
                 }
@@ -254,52 +282,48 @@ impl Emitter {
         total
     }
 
-    /// `cos θ_X cos θ_Y / r²` with visibility.
-    fn kernel(
-        &self,
-        scene: &Scene,
-        receiver: usize,
-        x: &Point3<f64>,
-        n_x: &Unit<Vector3<f64>>,
-        y: &Point3<f64>,
-    ) -> f64 {
-        let r = y - x;
+    /// `f_X · g_Y · cos θ_X cos θ_Y / r²` with visibility, for the emitting point `y` (`g_Y`
+    /// is 1 for a diffuse emitter, whose albedo is in the flux).
+    fn kernel(&self, scene: &Scene, at: &DiffusePoint, y: &Point3<f64>) -> f64 {
+        let r = y - at.point;
         let r2 = r.norm_squared();
         if r2 == 0.0 {
             return 0.0;
         }
-        let cos_x = n_x.dot(&r);
-        let cos_y = -self.lit_normal.dot(&r);
+        let dir = r / r2.sqrt();
+        let cos_x = at.normal.dot(&dir);
+        let cos_y = -self.lit_normal.dot(&dir);
         if cos_x <= 0.0 || cos_y <= 0.0 {
             return 0.0;
         }
-        if scene.surfaces.len() > 2 && scene.occluded(x, y, Some(receiver), Some(self.surface)) {
+        if scene.surfaces.len() > 2
+            && scene.occluded(&at.point, y, Some(at.surface), Some(self.surface))
+        {
             return 0.0;
         }
-        cos_x * cos_y / (r2 * r2)
+        let f_x = at.material.relative_brdf(&at.normal, &dir, &at.view) / PI;
+        let g_y = match self.material {
+            Material::Glossy { .. } => self.material.relative_brdf(
+                &self.lit_normal,
+                &(self.projector_mm - y).normalize(),
+                &-dir,
+            ),
+            _ => 1.0,
+        };
+        f_x * g_y * cos_x * cos_y / r2
     }
 
-    /// A finest cell too close to the receiver, split into `m × m` parts of equal flux.
-    #[allow(clippy::too_many_arguments)]
-    fn near_field(
-        &self,
-        scene: &Scene,
-        receiver: usize,
-        x: &Point3<f64>,
-        n_x: &Unit<Vector3<f64>>,
-        cell: &Cell,
-        distance: f64,
-        settings: &GatherSettings,
-    ) -> f64 {
-        let m = ((cell.size_mm / (settings.distance_ratio * distance.max(1e-9))).ceil() as usize)
-            .clamp(1, 32);
+    /// A finest cell larger than `max_size_mm` (too close to the receiver), split into `m × m`
+    /// parts of equal flux.
+    fn near_field(&self, scene: &Scene, at: &DiffusePoint, cell: &Cell, max_size_mm: f64) -> f64 {
+        let m = ((cell.size_mm / max_size_mm.max(1e-9)).ceil() as usize).clamp(1, 32);
         let mut sum = 0.0;
         for a in 0..m {
             for b in 0..m {
                 let fa = -1.0 + (2 * a + 1) as f64 / m as f64;
                 let fb = -1.0 + (2 * b + 1) as f64 / m as f64;
                 let y = cell.point + self.half_across * fa + self.half_along * fb;
-                sum += self.kernel(scene, receiver, x, n_x, &y);
+                sum += self.kernel(scene, at, &y);
             }
         }
         sum * cell.flux / (m * m) as f64

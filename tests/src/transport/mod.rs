@@ -2,17 +2,18 @@
 //! reaches it, with their weights, plus pattern-independent ambient light.
 //!
 //! Patterns vary along projector columns only (SPEC §1), so whatever the light does between the
-//! projector and a pixel — direct, through mirrors, between diffuse facets — the pixel's
-//! signal under any frame is `ambient + Σ_j w_j·P(j)` with `P(j)` the emitted value of column
-//! `j`. The weights are computed once per scene:
+//! projector and a pixel — direct, through mirrors, between diffuse or glossy facets — the
+//! pixel's signal under any frame is `ambient + Σ_j w_j·P(j)` with `P(j)` the emitted value of
+//! column `j`. The weights are computed once per scene:
 //!
 //! - **direct and mirrored light** over the pixel's footprint: `s × s` rays per pixel
 //!   (multi-jittered over the pixel square, a pattern of its own in every pixel, point-symmetric
-//!   about its centre: [`footprint`]), each followed through camera-side mirrors to a diffuse point,
-//!   where the projector's light arrives directly and through each mirror ([`paths`]); each
-//!   arrival is spread over the columns by the projector blur ([`BlurKernel`]);
-//! - **diffuse interreflection** from the scene's emitters ([`gather`]), integrated once per
-//!   pixel and surface at the footprint's sample nearest the pixel centre.
+//!   about its centre: [`footprint`]), each followed through camera-side mirrors to a diffuse or
+//!   glossy point, where the projector's light arrives directly and through each mirror and is
+//!   reflected by the point's BRDF ([`paths`]); each arrival is spread over the columns by the
+//!   projector blur ([`BlurKernel`]);
+//! - **interreflection** from the scene's diffuse or glossy emitters ([`gather`]), integrated
+//!   once per pixel and surface at the footprint's sample nearest the pixel centre.
 //!
 //! Rendering a frame is then a sparse dot product per pixel ([`crate::capture`]).
 
@@ -26,6 +27,7 @@ use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
 
 use crate::radiometry::BlurKernel;
+use crate::scene::brdf::AmbientReflectance;
 use crate::scene::{Material, Scene};
 use crate::system::System;
 use crate::truth::{GroundTruth, PixelTruth, SurfaceClass};
@@ -41,7 +43,8 @@ pub enum PathKind {
     Direct,
     /// Through at least one mirror (on the projector's side, the camera's side, or both).
     Specular,
-    /// Through one diffuse bounce on another surface.
+    /// Through one bounce on another diffuse or glossy surface (one of the scene's emitters:
+    /// [`gather`]).
     Diffuse,
 }
 
@@ -60,7 +63,7 @@ pub struct TransportSettings {
     pub supersampling: u32,
     /// Most mirror reflections followed from the camera.
     pub max_mirror_bounces: u32,
-    /// Diffuse interreflection integration.
+    /// Interreflection integration.
     pub gather: GatherSettings,
 }
 
@@ -199,6 +202,11 @@ impl LightTransport {
             settings,
             blur: BlurKernel::new(system.blur_sigma_columns),
             emitters,
+            ambient_reflectance: scene
+                .surfaces
+                .iter()
+                .map(|s| AmbientReflectance::of(&s.material))
+                .collect(),
         };
         let computed: Vec<(RowTransport, Vec<PixelTruth>)> =
             rows.clone().into_par_iter().map(|y| ctx.row(y)).collect();
@@ -319,6 +327,8 @@ struct Context<'a> {
     settings: &'a TransportSettings,
     blur: BlurKernel,
     emitters: Vec<Emitter>,
+    /// Per surface: how much of the ambient light it sends the camera.
+    ambient_reflectance: Vec<AmbientReflectance>,
 }
 
 /// Per-kind dense accumulators over the projector columns, reused from pixel to pixel.
@@ -392,7 +402,7 @@ impl Accumulators {
     }
 }
 
-/// A footprint sample's diffuse point, grouped by surface for the diffuse gather.
+/// A footprint sample's diffuse or glossy point, grouped by surface for the gather.
 struct GatherGroup {
     surface: usize,
     bounces: u32,
@@ -433,7 +443,7 @@ impl Context<'_> {
         // Edge detection: what the samples saw first and whether they were lit directly.
         let mut first_surfaces: Vec<Option<usize>> = Vec::with_capacity((s * s) as usize);
         let mut lit_directly = (false, false);
-        // The diffuse gather of the surface seen at the pixel centre is integrated at the
+        // The gather of the surface seen at the pixel centre is integrated at the
         // centre's point; other surfaces of the footprint at their sample nearest the centre.
         if !self.emitters.is_empty() {
             if let Ok(dir) = cal.camera.ray(Point2::new(x as f64, y as f64)) {
@@ -462,7 +472,8 @@ impl Context<'_> {
                 continue;
             };
             first_surfaces.push(Some(at.surface + 1000 * at.bounces as usize));
-            ambient += sample_weight * at.throughput * at.albedo * self.scene.ambient;
+            let reflectance = self.ambient_reflectance[at.surface].at(at.normal.dot(&at.view));
+            ambient += sample_weight * at.throughput * reflectance * self.scene.ambient;
             arrivals(
                 self.scene,
                 cal,
@@ -530,7 +541,8 @@ impl Context<'_> {
         truth
     }
 
-    /// Diffuse light from every emitter, once per (surface, bounces) group of the footprint.
+    /// Interreflected light from every emitter, once per (surface, bounces) group of the
+    /// footprint.
     fn gather(&self, groups: &[GatherGroup], sample_weight: f64, acc: &mut Accumulators) {
         let columns = acc.profile.len();
         let mut any = false;
@@ -539,10 +551,7 @@ impl Context<'_> {
             for e in &self.emitters {
                 let total = e.gather(
                     self.scene,
-                    at.surface,
-                    &at.point,
-                    &at.normal,
-                    at.albedo,
+                    at,
                     at.throughput * sample_weight * g.count as f64,
                     &self.settings.gather,
                     &mut acc.profile,
@@ -591,10 +600,11 @@ impl Context<'_> {
         let front = hit.normal.dot(&dir) < 0.0;
         t.class = match self.scene.surfaces[hit.surface].material {
             Material::Diffuse { .. } => SurfaceClass::Diffuse,
+            Material::Glossy { .. } => SurfaceClass::Glossy,
             Material::Mirror { reflectance } if front && reflectance > 0.0 => SurfaceClass::Mirror,
             _ => SurfaceClass::Black,
         };
-        if t.class == SurfaceClass::Diffuse {
+        if matches!(t.class, SurfaceClass::Diffuse | SurfaceClass::Glossy) {
             // Lit directly at the centre point? Then its projector column is the truth.
             if let Some(at) = trace_to_diffuse(self.scene, origin, dir, 0) {
                 let mut arr = Vec::new();

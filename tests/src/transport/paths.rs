@@ -1,6 +1,6 @@
 //! Light paths of one camera ray: specular bounces on the camera side, then at the first diffuse
-//! point the projector's light arriving directly and through each mirror (the exact
-//! virtual-projector construction).
+//! or glossy point the projector's light arriving directly and through each mirror (the exact
+//! virtual-projector construction), reflected towards the camera by the point's BRDF.
 
 use fsm_geometry::Calibration;
 use nalgebra::{Point3, Unit, Vector3};
@@ -8,15 +8,18 @@ use nalgebra::{Point3, Unit, Vector3};
 use crate::radiometry::lambertian_signal;
 use crate::scene::{Material, Scene};
 
-/// Where a camera ray ends on a diffuse surface.
+/// Where a camera ray ends on a surface that scatters light (diffuse or glossy).
 #[derive(Clone, Copy, Debug)]
 pub struct DiffusePoint {
     /// The point, camera frame, mm.
     pub point: Point3<f64>,
     /// Unit normal on the side the ray arrived from.
     pub normal: Unit<Vector3<f64>>,
-    /// Albedo.
-    pub albedo: f64,
+    /// Unit direction back along the ray (to the camera, or to the last mirror on the way):
+    /// where a glossy point's BRDF sends the light.
+    pub view: Unit<Vector3<f64>>,
+    /// The surface's material ([`Material::scatters`]).
+    pub material: Material,
     /// Product of the mirror reflectances on the way from the camera.
     pub throughput: f64,
     /// Surface index.
@@ -25,19 +28,19 @@ pub struct DiffusePoint {
     pub bounces: u32,
 }
 
-/// Light of the projector reaching a diffuse point along one path: the projector coordinate
-/// `(u, v)` it left from and its signal in reference whites.
+/// Light of the projector reaching a diffuse or glossy point along one path: the projector
+/// coordinate `(u, v)` it left from and its signal in reference whites.
 #[derive(Clone, Copy, Debug)]
 pub struct Arrival {
     /// Projector column coordinate.
     pub column: f64,
-    /// Reference-white signal (albedo, throughput and geometry included).
+    /// Reference-white signal (BRDF, throughput and geometry included).
     pub signal: f64,
     /// Whether it came through a mirror.
     pub via_mirror: bool,
 }
 
-/// Follows a camera ray through mirrors to its first diffuse surface.
+/// Follows a camera ray through mirrors to its first diffuse or glossy surface.
 pub fn trace_to_diffuse(
     scene: &Scene,
     origin: Point3<f64>,
@@ -52,12 +55,13 @@ pub fn trace_to_diffuse(
         let hit = scene.nearest_hit(&origin, &dir, f64::INFINITY, skip)?;
         let front = hit.normal.dot(&dir) < 0.0;
         match scene.surfaces[hit.surface].material {
-            Material::Diffuse { albedo } => {
+            material if material.scatters() => {
                 let normal = if front { hit.normal } else { -hit.normal };
                 return Some(DiffusePoint {
                     point: hit.point,
                     normal,
-                    albedo,
+                    view: Unit::new_normalize(-dir),
+                    material,
                     throughput,
                     surface: hit.surface,
                     bounces,
@@ -92,7 +96,8 @@ fn projector_coordinate(cal: &Calibration, p: &Point3<f64>, reach: f64) -> Optio
 /// Every path by which the projector lights `at`: directly and through each mirror (one
 /// reflection, the virtual projector `O'` = the projector centre mirrored in the mirror's
 /// plane; the light leaves the projector at the column of the mirrored point `X'`, and only if
-/// the segment `O → X'` crosses the mirror inside its extent).
+/// the segment `O → X'` crosses the mirror inside its extent). The light arrives from `O` (or
+/// `O'`) and leaves towards `at.view`, weighted by [`Material::relative_brdf`].
 pub fn arrivals(
     scene: &Scene,
     cal: &Calibration,
@@ -105,12 +110,13 @@ pub fn arrivals(
     let o = cal.projector_centre_mm();
     let x = at.point;
     let n = at.normal.into_inner();
+    let view = at.view.into_inner();
     let scale = at.throughput;
     // Direct.
     if n.dot(&(o - x)) > 0.0 && !scene.occluded(&x, &o, Some(at.surface), None) {
         if let Some((column, depth)) = projector_coordinate(cal, &x, reach) {
-            let signal =
-                scale * lambertian_signal(at.albedo, &x, &n, &o, depth, reference_distance_mm);
+            let brdf = at.material.relative_brdf(&n, &(o - x).normalize(), &view);
+            let signal = scale * lambertian_signal(brdf, &x, &n, &o, depth, reference_distance_mm);
             if signal > 0.0 {
                 out.push(Arrival {
                     column,
@@ -149,9 +155,10 @@ pub fn arrivals(
             continue;
         }
         if let Some((column, depth)) = projector_coordinate(cal, &x_mirrored, reach) {
+            let brdf = at.material.relative_brdf(&n, &(m - x).normalize(), &view);
             let signal = scale
                 * reflectance
-                * lambertian_signal(at.albedo, &x, &n, &o_mirrored, depth, reference_distance_mm);
+                * lambertian_signal(brdf, &x, &n, &o_mirrored, depth, reference_distance_mm);
             if signal > 0.0 {
                 out.push(Arrival {
                     column,
