@@ -3,6 +3,8 @@
 //! Candidates must be bit-identical in every build profile and on every machine (SPEC §6, the
 //! firmware cross-check); CI runs this in the dev and the release profile and compares:
 //! `cargo run -p fsm-core --example digest` and `cargo run -p fsm-core --release --example digest`.
+//! Each plan's row is also decoded 1, 4, 8 and 16 lanes at a time, and the example fails unless
+//! every lane count gives the same candidates.
 
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan, Window};
 
@@ -45,31 +47,42 @@ fn row(plan: &ScanPlan, width: usize, seed: u64) -> Vec<u16> {
 }
 
 fn main() {
-    let mut hann = ScanPlan::paper_efsm(GroupCount::Two);
+    let mut hann = ScanPlan::paper_efsm(GroupCount::Two).with_clean();
     hann.decoding.window = Window::Hann;
     let plans = [
         ScanPlan::paper_bfsm(),
         ScanPlan::paper_efsm(GroupCount::Two),
+        ScanPlan::paper_efsm(GroupCount::One),
+        ScanPlan::paper_bfsm().with_clean(),
         hann,
+        ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima(),
     ];
     let mut digest = Digest(0xcbf2_9ce4_8422_2325);
     let mut count = 0;
     for (n, plan) in plans.iter().enumerate() {
-        let width = 64;
+        // Not a multiple of the lane counts: every count ends with a partial chunk.
+        let width = 61;
         let frames = row(plan, width, n as u64 + 1);
         let mut tables = vec![0.0; Decoder::tables_len(plan)];
         let decoder = Decoder::new(plan, &mut tables).expect("preset is valid");
-        let mut scratch = vec![0.0; Decoder::scratch_len(plan)];
-        let mut out = vec![PixelCandidates::<16>::new(); width];
         let row = Row {
             frames: &frames,
             width,
             bit_depth: 12,
             column_limits: None,
         };
-        decoder
-            .decode_row(&row, &mut scratch, &mut out)
-            .expect("row decodes");
+        let out = decode::<1>(&decoder, &row);
+        for (lanes, other) in [
+            (4, decode::<4>(&decoder, &row)),
+            (8, decode::<8>(&decoder, &row)),
+            (16, decode::<16>(&decoder, &row)),
+            (0, decode_default(&decoder, &row)),
+        ] {
+            assert!(
+                other == out,
+                "plan {n}: {lanes} lanes (0: the default) differ from one lane"
+            );
+        }
         for p in &out {
             digest.bytes(&[p.flags.0]);
             digest.bytes(&p.noise_dn.to_bits().to_le_bytes());
@@ -83,4 +96,22 @@ fn main() {
         }
     }
     println!("{count} candidates, digest {:016x}", digest.0);
+}
+
+fn decode<const L: usize>(decoder: &Decoder<'_>, row: &Row<'_>) -> Vec<PixelCandidates<16>> {
+    let mut scratch = vec![0.0; Decoder::scratch_len_lanes::<L>(decoder.plan())];
+    let mut out = vec![PixelCandidates::<16>::new(); row.width];
+    decoder
+        .decode_row_lanes::<L, 16>(row, &mut scratch, &mut out)
+        .expect("row decodes");
+    out
+}
+
+fn decode_default(decoder: &Decoder<'_>, row: &Row<'_>) -> Vec<PixelCandidates<16>> {
+    let mut scratch = vec![0.0; Decoder::scratch_len(decoder.plan())];
+    let mut out = vec![PixelCandidates::<16>::new(); row.width];
+    decoder
+        .decode_row(row, &mut scratch, &mut out)
+        .expect("row decodes");
+    out
 }

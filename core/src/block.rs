@@ -12,7 +12,7 @@
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates};
 use crate::peak::PeakList;
 use crate::plan::sequence::Group;
-use crate::plan::{BlockCoding, ScanPlan};
+use crate::plan::{BlockCoding, PeakSearch, ScanPlan};
 
 /// Whether a local column passes the border guard `[cg, cB − cg]`.
 pub fn in_guard(local_column: f32, coding: &BlockCoding) -> bool {
@@ -157,22 +157,32 @@ pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
 /// - a peak holds more light than the brightest lit block sends: its fringe modulation over
 ///   `PB` exceeds that block's mask excess (by [`SHARED_PEAK_RATIO`] and the mask noise), so
 ///   the light of two blocks falls on one local column; or
-/// - two peaks are closer than `2Δc`, the c-domain's resolution, and pull on each other.
+/// - the DFT searches: two peaks are closer than `2Δc`, the c-domain's resolution, and pull
+///   on each other; the cosine search: two lights touch without a dip deep enough to split
+///   them ([`PeakList::unresolved`]); lights whose footprints do not merge are exact however
+///   close they are.
 ///
 /// Light spread over many columns (diffuse interreflection) lights masks but makes no peak, so
 /// it is not aliasing.
 fn aliased<F: Fn(u16) -> u16>(plan: &ScanPlan, peaks: &PeakList, masks: &MaskLevels<F>) -> bool {
-    let peaks = &peaks.peaks;
     let block_light = SHARED_PEAK_RATIO * masks.brightest_excess()
         + plan.decoding.mask_noise_factor * masks.noise_dn;
     let light = |amplitude: f32| amplitude / plan.levels.amplitude;
-    let separable = 2.0 * plan.column_resolution();
-    peaks.iter().any(|p| light(p.amplitude) > block_light)
-        || peaks.iter().enumerate().any(|(i, a)| {
-            peaks[i + 1..]
-                .iter()
-                .any(|b| (a.column - b.column).abs() < separable)
-        })
+    let shared = peaks.peaks.iter().any(|p| light(p.amplitude) > block_light);
+    let close = match plan.decoding.search {
+        // The profile separates every pair of lights whose footprints do not merge.
+        PeakSearch::Cosine => peaks.unresolved,
+        PeakSearch::Clean | PeakSearch::LocalMaxima => {
+            let separable = 2.0 * plan.column_resolution();
+            let p = &peaks.peaks;
+            p.iter().enumerate().any(|(i, a)| {
+                p[i + 1..]
+                    .iter()
+                    .any(|b| (a.column - b.column).abs() < separable)
+            })
+        }
+    };
+    shared || close
 }
 
 /// How much more light than the brightest block sends a peak must hold to be the light of two

@@ -72,6 +72,10 @@ impl PixelFlags {
     /// peaks are closer than `2Δc`. Such peaks are mixtures, off by up to a column, so a scan
     /// should not trust this pixel's candidates.
     pub const ALIASED: PixelFlags = PixelFlags(4);
+    /// BFSM, cosine search: two lights of the pixel touch with a dip between them well above
+    /// the noise but too shallow to tell their footprints apart; the candidate for them is
+    /// their mixture, off by up to half their distance, so a scan should not trust it.
+    pub const UNRESOLVED: PixelFlags = PixelFlags(8);
 
     /// Whether every flag of `other` is set.
     pub fn contains(self, other: PixelFlags) -> bool {

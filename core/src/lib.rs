@@ -65,5 +65,5 @@ pub use phase_shift::{PatternSequence, PhaseShiftPlan};
 pub use plan::sequence::{Group, Pattern};
 pub use plan::{
     BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
-    PeakSearch, PlanError, References, ScanPlan, Window,
+    PeakSearch, PlanError, References, ScanPlan, SensorNoise, Window,
 };

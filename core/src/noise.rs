@@ -1,6 +1,8 @@
-//! Noise propagation of paper §VI: what scatter a decoder should show for a given sensor noise.
+//! Noise propagation: what scatter a decoder should show for a given sensor noise (paper §VI),
+//! and the noise the cosine search judges a light against (SPEC §2b).
 
-use crate::math::ln;
+use crate::math::{ln, sqrt};
+use crate::plan::SensorNoise;
 
 /// Eq. 21: variance of a DFT magnitude bin for samples with noise variance `sigma²`,
 /// `σ²_DFT = σ²/(2M)`, with the spectrum scaled as in [`crate::transform::spectrum`] (no window).
@@ -30,4 +32,23 @@ pub fn gaussian_column_variance(
     let g_centre = ln(left / right) / centre;
     bin_width * bin_width * (g_left * g_left + g_right * g_right + g_centre * g_centre) / (d2 * d2)
         * dft_variance
+}
+
+/// RMS noise of one sample, sensor codes (DN), of a pixel whose fringe samples sit
+/// `signal_dn` above its dark level: read noise, the rounding to codes (`1/12` DN²) and the
+/// photon shot noise of `signal_dn`, with the sensor's electrons scaled to codes by the bit
+/// depth (`2^bits − 1` codes at full scale; SPEC §2b).
+pub fn sample_noise_dn(sensor: &SensorNoise, bit_depth: u8, signal_dn: f32) -> f32 {
+    let top_code = ((1u32 << bit_depth.clamp(1, 16)) - 1) as f32;
+    let dn_per_electron = top_code / sensor.full_scale_electrons;
+    let read = sensor.read_noise_electrons * dn_per_electron;
+    let shot = dn_per_electron * signal_dn.max(0.0);
+    sqrt(read * read + 1.0 / 12.0 + shot)
+}
+
+/// RMS noise of one column of the inverse cosine transform of `span + 1` columns
+/// ([`crate::transform::cosine`]) when every fringe sample has RMS noise `sample_noise_dn`:
+/// `σ·√(2/span)`, the same in every column but the two ends (which have half the variance).
+pub fn profile_noise_dn(sample_noise_dn: f32, span: u16) -> f32 {
+    sample_noise_dn * sqrt(2.0 / span.max(1) as f32)
 }

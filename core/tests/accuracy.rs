@@ -198,14 +198,64 @@ fn two_lights_more_than_two_resolution_steps_apart_are_both_found() {
     }
 }
 
-/// EFSM cannot tell two lights apart whose local columns fall within `2Δc` of each other
-/// modulo `cB` (paper §IV-C): both groups see one blended peak, or two peaks pulled towards
-/// each other. The decoder flags such pixels aliased; lights further apart modulo `cB`, and
-/// light spread over many blocks (diffuse interreflection), are decoded exactly and not
-/// flagged; BFSM never flags.
+/// EFSM cannot tell two lights apart whose local columns fall within one footprint of each
+/// other modulo `cB` (paper §IV-C, with the cosine search's profile): both groups see one
+/// mixed light. Swept over the local offset of a mirrored light (0.1-column steps, both
+/// sides): a pixel is flagged aliased, or every candidate is a true light's local column in
+/// some block; beyond 3 columns (a spot of σ 0.7 column is ±2 columns wide) none is flagged.
 #[test]
-fn efsm_flags_lights_unresolved_modulo_the_block_width() {
+fn efsm_flags_every_pixel_whose_lights_mix_modulo_the_block_width() {
     let plan = ScanPlan::paper_efsm(GroupCount::Two);
+    let cb = 64.0;
+    let direct = 308.7;
+    let offsets: Vec<f64> = (-80..=80).map(|i| i as f64 * 0.1).collect();
+    let pixels: Vec<Pixel> = offsets
+        .iter()
+        .map(|&o| {
+            Pixel::spot(direct, 0.7, 1500.0).plus(Pixel::spot(direct - 2.0 * cb + o, 0.7, 900.0))
+        })
+        .collect();
+    let decoded = decode_all::<8>(plan, &pixels, 11);
+    let (mut flagged, mut worst): (Vec<f64>, f64) = (Vec::new(), 0.0);
+    for (p, &offset) in decoded.iter().zip(&offsets) {
+        if p.flags.contains(PixelFlags::ALIASED) {
+            flagged.push(offset);
+            continue;
+        }
+        let truths = [direct, direct - 2.0 * cb + offset];
+        for c in &p.candidates {
+            let local = |t: f64| {
+                let d = (c.column as f64 - t).rem_euclid(cb);
+                d.min(cb - d)
+            };
+            worst = worst.max(
+                truths
+                    .iter()
+                    .map(|&t| local(t))
+                    .fold(f64::INFINITY, f64::min),
+            );
+        }
+        assert!(p.candidates.len() >= 2, "offset {offset}: {p:?}");
+    }
+    let widest = flagged.iter().fold(0.0f64, |m, o| m.max(o.abs()));
+    println!(
+        "EFSM 2 groups, cosine: {} of {} offsets flagged (|offset| <= {widest:.1}); \
+         unflagged worst local-column error {worst:.3}",
+        flagged.len(),
+        offsets.len()
+    );
+    assert!(widest < 3.0, "flagged up to {widest}");
+    assert!(worst < 0.2, "an unflagged pixel's candidate is {worst} off");
+}
+
+/// The DFT searches cannot tell two lights apart whose local columns fall within `2Δc` of each
+/// other modulo `cB` (paper §IV-C): both groups see one blended peak, or two peaks pulled
+/// towards each other. The decoder flags such pixels aliased; lights further apart modulo
+/// `cB`, and light spread over many blocks (diffuse interreflection), are decoded exactly and
+/// not flagged; BFSM never flags.
+#[test]
+fn efsm_clean_flags_lights_unresolved_modulo_the_block_width() {
+    let plan = ScanPlan::paper_efsm(GroupCount::Two).with_clean();
     let cb = 64.0;
     let two_dc = 2.0 * plan.column_resolution() as f64;
     let direct = 308.7;
@@ -247,6 +297,6 @@ fn efsm_flags_lights_unresolved_modulo_the_block_width() {
         assert!(nearest_error(p, truth) < 0.05, "{p:?}");
     }
 
-    let bfsm = decode_all::<8>(ScanPlan::paper_bfsm(), &pixels, 12);
+    let bfsm = decode_all::<8>(ScanPlan::paper_bfsm().with_clean(), &pixels, 12);
     assert!(bfsm.iter().all(|p| !p.flags.contains(PixelFlags::ALIASED)));
 }

@@ -227,7 +227,7 @@ fn sequences_too_short_to_measure_noise_beside_a_light_are_refused() {
 
 #[test]
 fn the_search_is_part_of_the_plan_and_its_wire_form() {
-    let clean = ScanPlan::paper_efsm(GroupCount::One);
+    let clean = ScanPlan::paper_efsm(GroupCount::One).with_clean();
     let plan = fast(clean);
     assert_eq!(plan.decoding.search, PeakSearch::LocalMaxima);
     assert_ne!(plan.fingerprint(), clean.fingerprint());
@@ -235,10 +235,11 @@ fn the_search_is_part_of_the_plan_and_its_wire_form() {
     assert_eq!(bytes[18], 1);
     assert_eq!(ScanPlan::from_bytes(&bytes).unwrap(), plan);
     // A CLEAN plan's bytes are those of plans written before the field existed (byte 18 was
-    // reserved, 0), so their fingerprints are unchanged.
+    // reserved, 0), so their fingerprints are unchanged; the cosine search is 2.
     assert_eq!(clean.to_bytes()[18], 0);
+    assert_eq!(ScanPlan::paper_efsm(GroupCount::One).to_bytes()[18], 2);
     let mut bad = bytes;
-    bad[18] = 2;
+    bad[18] = 3;
     let e = ScanPlan::from_bytes(&bad).unwrap_err().to_string();
     assert!(e.contains("search"), "{e}");
     let mut bad = bytes;

@@ -1,10 +1,11 @@
 //! Monte-Carlo scatter against paper §VI: the DFT magnitude's variance σ²/(2M) (eq. 21) and the
-//! 3-point Gaussian estimator's column variance (eq. 22). The test fails if the measured
-//! variance leaves ±25% of the prediction.
+//! 3-point Gaussian estimator's column variance (eq. 22); and against SPEC §2b: the cosine
+//! profile's column noise `σ·√(2/span)`, which sets the cosine search's threshold. The tests
+//! fail if the measured variance leaves ±25% of the prediction (±10% for the profile).
 
 mod support;
 
-use fsm_core::noise::{dft_magnitude_variance, gaussian_column_variance};
+use fsm_core::noise::{dft_magnitude_variance, gaussian_column_variance, profile_noise_dn};
 use fsm_core::{Decoder, FringeBand, Group, Method, PeakEstimator, Row, ScanPlan};
 use support::{Noise, Pixel};
 
@@ -64,7 +65,7 @@ fn gaussian_estimator_scatter_follows_eq_22() {
         },
         transform_size: 64,
         method: Method::Bfsm,
-        ..ScanPlan::paper_bfsm()
+        ..ScanPlan::paper_bfsm().with_clean()
     };
     let mut plan = plan;
     plan.decoding.estimator = PeakEstimator::Gaussian;
@@ -119,6 +120,55 @@ fn gaussian_estimator_scatter_follows_eq_22() {
                 (0.75..=1.25).contains(&ratio),
                 "column {column} σ {sigma}: ratio {ratio}"
             );
+        }
+    }
+}
+
+#[test]
+fn profile_columns_carry_the_predicted_noise() {
+    for plan in [
+        ScanPlan::paper_bfsm(),
+        ScanPlan::efsm(768, 64, fsm_core::GroupCount::One),
+    ] {
+        let mut tables = vec![0.0; Decoder::tables_len(&plan)];
+        let decoder = Decoder::new(&plan, &mut tables).unwrap();
+        let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
+        let span = plan.full_band_span().unwrap();
+        // A lit column, and unlit ones beside and far from it.
+        let lit = (span / 3) as usize;
+        let pixel = Pixel::column(lit as u32, 900.0);
+        let watched = [lit, lit + 4, (2 * span / 3) as usize];
+        for sigma in [2.0, 6.0] {
+            let mut noise = Noise::new(23);
+            let mut values = vec![Vec::new(); watched.len()];
+            for _ in 0..1500 {
+                let s = pixel.samples(&plan, sigma, 16, &mut noise);
+                let row = Row {
+                    frames: &s,
+                    width: 1,
+                    bit_depth: 16,
+                    column_limits: None,
+                };
+                let profile = decoder
+                    .profile(&row, 0, Group::One, &mut scratch)
+                    .unwrap()
+                    .unwrap();
+                for (v, &j) in values.iter_mut().zip(&watched) {
+                    v.push(profile[j] as f64);
+                }
+            }
+            let effective = (sigma * sigma + QUANTISATION_VARIANCE).sqrt() as f32;
+            let predicted = (profile_noise_dn(effective, span) as f64).powi(2);
+            for (v, &j) in values.iter().zip(&watched) {
+                let ratio = variance(v) / predicted;
+                println!(
+                    "profile, span {span}, column {j}, σ = {sigma} DN: variance ratio {ratio:.3}"
+                );
+                assert!(
+                    (0.9..=1.1).contains(&ratio),
+                    "span {span} column {j}: {ratio}"
+                );
+            }
         }
     }
 }

@@ -224,7 +224,8 @@ fn validation_names_the_violated_rule() {
         })
     ));
 
-    // 912 columns: L = 1824 = 2^5·57 needs 1024·57 table entries.
+    // 912 columns: L = 1824 = 2^5·57 needs 1024·57 table entries for CLEAN's kernel; the
+    // cosine search needs no kernel.
     let mut p = ScanPlan::paper_bfsm();
     p.projector_columns = 912;
     p.band = fsm_core::FringeBand {
@@ -232,13 +233,58 @@ fn validation_names_the_violated_rule() {
         first_harmonic: 1,
         count: 912,
     };
+    p.validate().unwrap();
     rejects(
-        p,
+        p.with_clean(),
         PlanError::KernelTable {
             entries: 1024 * 57,
             max: MAX_KERNEL_TABLE_LEN,
         },
     );
+
+    // The cosine search's own rules.
+    let mut p = ScanPlan::paper_bfsm();
+    p.band.count = 700;
+    rejects(
+        p,
+        PlanError::CosineNeedsFullBand {
+            first_harmonic: 1,
+            count: 700,
+            period_columns: 1536,
+        },
+    );
+    assert!(p.with_clean().validate().is_ok());
+    let mut p = ScanPlan::paper_bfsm();
+    p.references.white = false;
+    rejects(p, PlanError::CosineNeedsReferences);
+    let mut p = ScanPlan::paper_efsm(GroupCount::Two);
+    p.decoding.window = fsm_core::Window::Hann;
+    rejects(p, PlanError::CosineWindow);
+    let mut p = ScanPlan::paper_efsm(GroupCount::Two);
+    p.decoding.estimator = fsm_core::PeakEstimator::Gaussian;
+    rejects(
+        p,
+        PlanError::CosineEstimator {
+            estimator: fsm_core::PeakEstimator::Gaussian,
+        },
+    );
+    let msg = p.validate().unwrap_err().to_string();
+    assert!(
+        msg.contains("decoding.estimator") && msg.contains("Deconvolution"),
+        "{msg}"
+    );
+    let mut p = ScanPlan::paper_bfsm();
+    p.decoding.sensor.full_scale_electrons = 0.0;
+    rejects(p, PlanError::SensorFullScale { value: 0.0 });
+    let mut p = ScanPlan::paper_bfsm();
+    p.decoding.sensor.read_noise_electrons = -1.0;
+    assert!(matches!(
+        p.validate(),
+        Err(PlanError::DecodeThreshold {
+            field: "sensor.read_noise_electrons",
+            ..
+        })
+    ));
 }
 
 #[test]

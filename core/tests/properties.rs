@@ -6,8 +6,19 @@ use fsm_core::{BlockCoding, FringeBand, Group, GroupCount, Method, PixelCandidat
 use proptest::prelude::*;
 use support::{nearest_error, Harness, Noise, Pixel};
 
-/// A random valid plan: BFSM or EFSM, full or narrowed band, with or without zero padding.
+/// A random valid plan: BFSM or EFSM, full or narrowed band, with or without zero padding;
+/// a full band decoded by the cosine search or by CLEAN, a narrowed one by CLEAN.
 fn plan_strategy() -> impl Strategy<Value = ScanPlan> {
+    (search_free_plan(), prop::bool::ANY).prop_map(|(plan, clean)| {
+        if clean || plan.full_band_span().is_none() {
+            plan.with_clean()
+        } else {
+            plan
+        }
+    })
+}
+
+fn search_free_plan() -> impl Strategy<Value = ScanPlan> {
     let bfsm = (
         prop::sample::select(vec![
             48u16, 64, 96, 128, 160, 192, 256, 320, 384, 512, 640, 768, 1024,
@@ -57,7 +68,7 @@ fn plan_strategy() -> impl Strategy<Value = ScanPlan> {
             }
             plan
         });
-    prop_oneof![bfsm, efsm].prop_filter("valid plan", |p| p.validate().is_ok())
+    prop_oneof![bfsm, efsm].prop_filter("valid plan", |p| p.with_clean().validate().is_ok())
 }
 
 /// The highest fringe frequency as a fraction of the projector's 1/2 cycle per column.
@@ -219,15 +230,17 @@ fn assert_both_found(ta: f64, tb: f64, columns: &[f32], tolerance: f64) {
 
 /// Found by the property above: EFSM cB 16 with 16 fringes, lights 4.5 columns apart. Each
 /// light's sidelobes cover every bin, so the residual one light leaves measures the other, and
-/// each failed its noise test alone: both were lost until the search looked one light ahead.
+/// each failed its noise test alone: both were lost until CLEAN looked one light ahead. The
+/// cosine search sees them as two runs.
 #[test]
 fn two_lights_of_a_sixteen_fringe_sequence_are_both_found() {
-    let mut plan = ScanPlan::efsm(200, 16, GroupCount::One);
-    plan.band.count = 16;
-    let separation = 2.0 * plan.column_resolution() as f64 + 0.5;
-    let a = 3.0 + 0.09785236533299703 * (16.0 - separation - 6.0);
-    let (ta, tb, columns) = two_lights(plan, a, separation, 0.831969612037496, 0);
-    assert_both_found(ta, tb, &columns, 0.3);
+    let cosine = ScanPlan::efsm(200, 16, GroupCount::One);
+    for plan in [cosine, cosine.with_clean()] {
+        let separation = 2.0 * plan.column_resolution() as f64 + 0.5;
+        let a = 3.0 + 0.09785236533299703 * (16.0 - separation - 6.0);
+        let (ta, tb, columns) = two_lights(plan, a, separation, 0.831969612037496, 0);
+        assert_both_found(ta, tb, &columns, 0.3);
+    }
 }
 
 /// Found by the property above: this pixel made the non-negative solver's inner loop step for
@@ -244,7 +257,7 @@ fn non_negative_solve_terminates_where_rounding_blocks_a_step() {
         },
         transform_size: 64,
         method: Method::Bfsm,
-        ..ScanPlan::paper_bfsm()
+        ..ScanPlan::paper_bfsm().with_clean()
     };
     plan.validate().unwrap();
     let separation = 2.0 * plan.column_resolution() as f64 + 4.249241922599397;

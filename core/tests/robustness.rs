@@ -10,14 +10,16 @@ use fsm_core::{
 use proptest::prelude::*;
 use support::{Harness, Noise, Pixel};
 
+/// The cosine search's presets, and CLEAN with and without a window.
 fn plans() -> Vec<ScanPlan> {
-    let mut hann = ScanPlan::paper_efsm(GroupCount::Two);
+    let mut hann = ScanPlan::paper_efsm(GroupCount::Two).with_clean();
     hann.decoding.window = Window::Hann;
     vec![
         ScanPlan::paper_bfsm(),
         ScanPlan::paper_efsm(GroupCount::Two),
         hann,
         ScanPlan::efsm(700, 32, GroupCount::Two),
+        ScanPlan::paper_bfsm().with_clean(),
     ]
 }
 
@@ -268,7 +270,7 @@ proptest! {
     /// Arbitrary samples of any bit depth never panic and give finite candidates.
     #[test]
     fn arbitrary_rows_never_panic(
-        plan_index in 0usize..4,
+        plan_index in 0usize..5,
         seed in any::<u64>(),
         bits in 1u8..=16,
         width in 1usize..4,

@@ -11,13 +11,20 @@ use support::{Harness, Noise, Pixel};
 
 #[test]
 fn plans_round_trip_through_their_canonical_bytes() {
-    let mut hann = ScanPlan::paper_efsm(GroupCount::One);
+    let mut hann = ScanPlan::paper_efsm(GroupCount::One).with_clean();
     hann.decoding.window = Window::Hann;
     hann.decoding.estimator = fsm_core::PeakEstimator::BlaisRioux8;
+    let mut sensor = ScanPlan::paper_bfsm();
+    sensor.decoding.sensor = fsm_core::SensorNoise {
+        full_scale_electrons: 32_000.0,
+        read_noise_electrons: 2.5,
+    };
     for plan in [
         ScanPlan::paper_bfsm(),
         ScanPlan::paper_efsm(GroupCount::Two),
+        ScanPlan::paper_bfsm().with_clean(),
         hann,
+        sensor,
     ] {
         let bytes = plan.to_bytes();
         assert_eq!(ScanPlan::from_bytes(&bytes).unwrap(), plan);
@@ -30,15 +37,81 @@ fn plans_round_trip_through_their_canonical_bytes() {
     let mut other = ScanPlan::paper_bfsm();
     other.decoding.relative_floor = 0.03;
     assert_ne!(other.fingerprint(), ScanPlan::paper_bfsm().fingerprint());
+    assert_ne!(sensor.fingerprint(), ScanPlan::paper_bfsm().fingerprint());
     assert_ne!(
         ScanPlan::paper_bfsm().fingerprint(),
         ScanPlan::paper_efsm(GroupCount::Two).fingerprint()
     );
 }
 
+/// Version-1 plans (64 bytes, before the cosine search and the sensor fields) still read, as
+/// the same plan with the default sensor, and keep the fingerprints files recorded with them
+/// carry: these are the fingerprints the presets had before version 2 (commit 7af01ba).
+#[test]
+fn version_one_plans_read_and_keep_their_fingerprints() {
+    use fsm_core::wire::plan::PLAN_V1_LEN;
+    for (plan, recorded) in [
+        (
+            ScanPlan::paper_bfsm().with_clean(),
+            0x5fc7_0cb9_5a70_a890u64,
+        ),
+        (
+            ScanPlan::paper_efsm(GroupCount::Two).with_clean(),
+            0xf4fe_54e3_d63f_2733,
+        ),
+        (
+            ScanPlan::paper_efsm(GroupCount::One).with_local_maxima(),
+            0x201e_675e_11bf_416c,
+        ),
+    ] {
+        assert_eq!(plan.legacy_fingerprint(), Some(recorded));
+        assert!(plan.has_fingerprint(recorded) && plan.has_fingerprint(plan.fingerprint()));
+        let mut v1 = [0u8; PLAN_V1_LEN];
+        v1.copy_from_slice(&plan.to_bytes()[..PLAN_V1_LEN]);
+        v1[60..62].copy_from_slice(&1u16.to_le_bytes());
+        assert_eq!(fsm_core::wire::crc64(&v1), recorded);
+        assert_eq!(ScanPlan::from_bytes(&v1).unwrap(), plan);
+    }
+    // What version 1 cannot say has no legacy fingerprint, and version 1 cannot name it.
+    let cosine = ScanPlan::paper_bfsm();
+    assert_eq!(cosine.legacy_fingerprint(), None);
+    assert!(!cosine.has_fingerprint(0x5fc7_0cb9_5a70_a890));
+    let mut v1 = cosine.to_bytes();
+    v1[60..62].copy_from_slice(&1u16.to_le_bytes());
+    assert!(matches!(
+        ScanPlan::from_bytes(&v1[..PLAN_V1_LEN]),
+        Err(WireError::Field {
+            field: "search",
+            value: 2,
+            ..
+        })
+    ));
+    let mut sensor = ScanPlan::paper_bfsm().with_clean();
+    sensor.decoding.sensor.read_noise_electrons = 3.0;
+    assert_eq!(sensor.legacy_fingerprint(), None);
+}
+
 #[test]
 fn invalid_plan_bytes_are_refused() {
     let good = ScanPlan::paper_efsm(GroupCount::Two).to_bytes();
+    assert!(matches!(
+        ScanPlan::from_bytes(&good[..70]),
+        Err(WireError::Truncated {
+            needed: 80,
+            got: 70,
+            ..
+        })
+    ));
+    let mut b = good;
+    b[75] = 1; // reserved tail
+    assert!(matches!(
+        ScanPlan::from_bytes(&b),
+        Err(WireError::Field {
+            field: "reserved",
+            value: 1,
+            ..
+        })
+    ));
     assert!(matches!(
         ScanPlan::from_bytes(&good[..63]),
         Err(WireError::Truncated {
@@ -90,7 +163,7 @@ fn invalid_plan_bytes_are_refused() {
         ScanPlan::from_bytes(&b),
         Err(WireError::Version {
             version: 9,
-            supported: 1,
+            supported: 2,
             ..
         })
     ));

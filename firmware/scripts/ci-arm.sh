@@ -77,7 +77,7 @@ fi
 
 # 2b. The same cross-check on the project's light-transport simulator: `fsm simulate` renders
 #     plane_mirror (a diffuse plane lit directly and through a mirror) at 48 x 32 pixels, `fsm plan
-#     --wire` gives the 64-byte plan the firmware takes. (The dev build: `cargo test --workspace`
+#     --wire` gives the 80-byte plan the firmware takes. (The dev build: `cargo test --workspace`
 #     has built it already.)
 "$HOST_CARGO" build -q --manifest-path "$FW_DIR/../Cargo.toml" -p fsm-cli --bin fsm
 FSM="$TARGET_DIR/debug/fsm"

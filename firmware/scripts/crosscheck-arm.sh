@@ -15,7 +15,7 @@
 #   --keep DIR  keep dumps, plans and candidate files in DIR (default: a temporary directory)
 # Environment:
 #   FW_ELF             firmware ELF to run (default: build it with scripts/build-arm.sh)
-#   FW_DUMP_<P>, FW_PLAN_<P>   for P in BFSM, EFSM2: use this row dump and 64-byte plan file
+#   FW_DUMP_<P>, FW_PLAN_<P>   for P in BFSM, EFSM2: use this row dump and 80-byte plan file
 #                      instead of rendering the built-in mirror scene (e.g. the simulator's
 #                      plane_mirror dump)
 #   QEMU_TIMEOUT       seconds per QEMU run (default 300)
@@ -73,7 +73,7 @@ for P in BFSM EFSM2; do
     plan_var="FW_PLAN_$P"
     if [ -n "${!dump_var:-}" ]; then
         cp "${!dump_var}" "$p.dump"
-        cp "${!plan_var:?$plan_var must name the 64-byte plan file of the dump}" "$p.plan"
+        cp "${!plan_var:?$plan_var must name the 80-byte plan file of the dump}" "$p.plan"
         echo "$p: dump ${!dump_var}"
     else
         "$TOOL" scene --plan "$p" --width "$WIDTH" --rows "$ROWS" --dump "$p.dump" --plan-out "$p.plan"

@@ -2,8 +2,8 @@
 # Run the firmware ELF under QEMU's Zynq-7000 model and propagate its exit status.
 #
 # Usage: scripts/run-qemu.sh [options] <elf> [input-file]
-#   --plan FILE      put a scan plan (its 64 canonical bytes) into the plan mailbox at
-#                    0x03FFFF08 with the descriptor {"PLAN", 64} at 0x03FFFF00 (src/layout.rs)
+#   --plan FILE      put a scan plan (its 80 canonical bytes) into the plan mailbox at
+#                    0x03FFFF08 with the descriptor {"PLAN", 80} at 0x03FFFF00 (src/layout.rs)
 #   --icount         instruction-count mode: `-icount shift=$ICOUNT_SHIFT` (default 4) and tell
 #                    the firmware the shift (descriptor "ICNT" at 0x03FFFFE8), so that it prints
 #                    exact instruction counts (`BENCH ... instructions=N`). See src/icount.rs.
@@ -85,10 +85,10 @@ fi
 
 if [ -n "$PLAN" ]; then
     [ -f "$PLAN" ] || { echo "run-qemu: no such plan file: $PLAN" >&2; exit 2; }
-    [ "$(stat -c %s "$PLAN")" = 64 ] || { echo "run-qemu: plan file $PLAN is not 64 bytes" >&2; exit 2; }
+    [ "$(stat -c %s "$PLAN")" = 80 ] || { echo "run-qemu: plan file $PLAN is not 80 bytes (fsm plan --wire)" >&2; exit 2; }
     case "$PLAN" in *,*) echo "run-qemu: plan path must not contain a comma" >&2; exit 2 ;; esac
     args+=(-device "loader,file=$PLAN,addr=$PLAN_BYTES,force-raw=on")
-    mapfile -t -O "${#args[@]}" args < <(word "$PLAN_DESC" "$MAGIC_PLAN"; word "$((0x03ffff04))" 64)
+    mapfile -t -O "${#args[@]}" args < <(word "$PLAN_DESC" "$MAGIC_PLAN"; word "$((0x03ffff04))" 80)
 fi
 
 if [ "$ICOUNT" = 1 ]; then

@@ -84,7 +84,7 @@ pub fn scan_dump<S: Sink, P: Probe>(
     let scan = Scan::of_dump(plan, &header).map_err(dump_error)?;
     let record_len = scan.record_len();
     let body = &dump[HEADER_LEN..];
-    if body.len() % record_len != 0 {
+    if !body.len().is_multiple_of(record_len) {
         return Err(dump_error(DumpError::Length {
             len: body.len(),
             record_len,

@@ -17,7 +17,7 @@ fn usage() -> &'static str {
     "usage: fsm-firmware <command> [options]
 
 commands (PLAN is bfsm, efsm1, efsm2, one of them with -fast (the paper's local-maximum
-search instead of CLEAN, e.g. efsm1-fast), or a 64-byte plan file written by `scene --plan-out`):
+search instead of CLEAN, e.g. efsm1-fast), or an 80-byte plan file written by `scene --plan-out`):
   scene --plan PLAN --width W --rows H --dump OUT [--plan-out FILE]
         render the mirror scene (interreflections) as a row dump
   decode --plan PLAN --dump DUMP --out CANDIDATES
@@ -112,7 +112,7 @@ impl<'a> Options<'a> {
     }
 }
 
-/// A preset name or a 64-byte plan file. A preset name with `-fast` decodes with the paper's
+/// A preset name or an 80-byte plan file. A preset name with `-fast` decodes with the paper's
 /// local-maximum search (`ScanPlan::with_local_maxima`) instead of CLEAN.
 fn plan(spec: &str) -> Result<ScanPlan, Failure> {
     let (preset, fast) = match spec.strip_suffix("-fast") {
@@ -131,7 +131,7 @@ fn plan(spec: &str) -> Result<ScanPlan, Failure> {
     Ok(plan)
 }
 
-/// A 64-byte plan file.
+/// An 80-byte plan file.
 fn plan_file(path: &str) -> Result<ScanPlan, Failure> {
     let bytes = fs::read(path).map_err(|e| err(format!("plan {path}: {e}")))?;
     if bytes.len() != fsm_core::wire::plan::PLAN_LEN {

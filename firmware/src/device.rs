@@ -16,7 +16,7 @@ use fsm_protocol::{
 };
 
 use crate::batch::Sink;
-use crate::limits::CANDIDATE_CAPACITY;
+use crate::limits::{CANDIDATE_CAPACITY, LANES};
 use crate::memory::Memory;
 use crate::scan::{self, NoProbe, RowBuffers, RowFailure, Scan, ScanError};
 
@@ -295,7 +295,7 @@ fn check_plan<'r>(
             max: capacity.tables as u32,
         });
     }
-    let scratch = Decoder::scratch_len(&plan);
+    let scratch = Decoder::scratch_len_lanes::<LANES>(&plan);
     if scratch > capacity.scratch {
         let _ = write!(
             text,

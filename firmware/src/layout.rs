@@ -19,7 +19,7 @@ pub const INPUT_BASE: usize = 0x0400_0000;
 /// Largest input that fits below the end of QEMU's default 128 MiB of DDR.
 pub const INPUT_MAX_LEN: usize = 0x0400_0000;
 
-/// Address of the plan descriptor: `u32` magic [`PLAN_MAGIC`], then `u32` length (64), then
+/// Address of the plan descriptor: `u32` magic [`PLAN_MAGIC`], then `u32` length (80, `PLAN_LEN`), then
 /// the plan's canonical bytes (`ScanPlan::to_bytes`) at [`PLAN_BYTES_ADDR`]. Written by
 /// `scripts/run-qemu.sh --plan <file>`.
 pub const PLAN_DESC_ADDR: usize = 0x03FF_FF00;
@@ -89,7 +89,10 @@ pub fn selftest() -> Option<SelfTest> {
     }
 }
 
-const _: () = assert!(RAM_END <= PLAN_DESC_ADDR && PLAN_BYTES_ADDR + 64 <= SELFTEST_DESC_ADDR);
+const _: () = assert!(
+    RAM_END <= PLAN_DESC_ADDR
+        && PLAN_BYTES_ADDR + fsm_core::wire::plan::PLAN_LEN <= SELFTEST_DESC_ADDR
+);
 const _: () = assert!(
     RAM_END <= SELFTEST_DESC_ADDR && SELFTEST_DESC_ADDR + 8 <= crate::icount::ICOUNT_DESC_ADDR
 );
@@ -131,9 +134,9 @@ mod tests {
     #[test]
     fn plan_descriptor() {
         assert_eq!(PLAN_MAGIC, 0x4E41_4C50);
-        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 64), Some(64));
-        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 63), None);
-        assert_eq!(plan_len_from_descriptor(INPUT_MAGIC, 64), None);
+        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 80), Some(80));
+        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 64), None);
+        assert_eq!(plan_len_from_descriptor(INPUT_MAGIC, 80), None);
     }
 
     #[test]

@@ -35,8 +35,23 @@ pub type Pixel = PixelCandidates<CANDIDATE_CAPACITY>;
 /// Floats of decoder tables (`Decoder::tables_len`: kernel, fit operators, window) the camera
 /// holds: 6 MiB.
 pub const MAX_TABLE_FLOATS: usize = 3 << 19;
-/// Floats of decoder scratch of the largest plan (`Decoder::scratch_len`).
-pub const MAX_SCRATCH_FLOATS: usize = (MAX_TRANSFORM_SIZE + 2) + (MAX_TRANSFORM_SIZE / 2 + 1);
+/// Pixels the camera decodes at once (`Decoder::decode_row_lanes`): one, since its core is a
+/// scalar VFP (NEON flushes denormals, so it would not give the host's bits). Any lane count
+/// gives the same candidates; the host decodes many at once.
+pub const LANES: usize = 1;
+/// Floats of decoder scratch of the largest plan (`Decoder::scratch_len_lanes` with
+/// [`LANES`]): the DFT searches' of `N = 4096`, or the cosine search's of an odd span of 4095
+/// (its transform takes the longer route), whichever is larger.
+pub const MAX_SCRATCH_FLOATS: usize = {
+    let dft = (MAX_TRANSFORM_SIZE + 2) + (MAX_TRANSFORM_SIZE / 2 + 1);
+    let span = MAX_TRANSFORM_SIZE - 1;
+    let cosine = (span + 1 + 4 * span) * LANES + span + 1;
+    if dft > cosine {
+        dft
+    } else {
+        cosine
+    }
+};
 /// Bytes of the largest row-dump record (`8 + 2·W·M`).
 pub const MAX_ROW_RECORD: usize = 8 + 2 * MAX_ROW_SAMPLES;
 /// Bytes of the largest candidate record.
@@ -71,8 +86,10 @@ mod tests {
             ScanPlan::paper_efsm(GroupCount::One),
             ScanPlan::paper_efsm(GroupCount::Two),
         ] {
-            assert!(Decoder::tables_len(&plan) <= MAX_TABLE_FLOATS);
-            assert!(Decoder::scratch_len(&plan) <= MAX_SCRATCH_FLOATS);
+            for plan in [plan, plan.with_clean()] {
+                assert!(Decoder::tables_len(&plan) <= MAX_TABLE_FLOATS);
+                assert!(Decoder::scratch_len_lanes::<LANES>(&plan) <= MAX_SCRATCH_FLOATS);
+            }
         }
         // The widths the module docs promise.
         assert_eq!(
@@ -91,10 +108,24 @@ mod tests {
         plan.band.period_columns = 16384;
         plan.band.count = 4096;
         plan.transform_size = 4096;
+        let cosine = plan;
+        let mut plan = plan.with_clean();
         plan.decoding.window = fsm_core::Window::Hann;
         assert_eq!(plan.validate(), Ok(()));
         assert!(Decoder::tables_len(&plan) <= MAX_TABLE_FLOATS);
-        // The largest transform core allows sets the scratch.
-        assert_eq!(Decoder::scratch_len(&plan), MAX_SCRATCH_FLOATS);
+        assert!(Decoder::scratch_len_lanes::<LANES>(&plan) <= MAX_SCRATCH_FLOATS);
+        // The cosine search over the same band, and over the largest odd span.
+        assert!(Decoder::tables_len(&cosine) <= MAX_TABLE_FLOATS);
+        assert!(Decoder::scratch_len_lanes::<LANES>(&cosine) <= MAX_SCRATCH_FLOATS);
+        let mut odd = cosine;
+        odd.projector_columns = 4095;
+        odd.band.period_columns = 8190;
+        odd.band.count = 4095;
+        assert_eq!(odd.validate(), Ok(()));
+        assert!(Decoder::tables_len(&odd) <= MAX_TABLE_FLOATS);
+        assert_eq!(
+            Decoder::scratch_len_lanes::<LANES>(&odd),
+            MAX_SCRATCH_FLOATS
+        );
     }
 }

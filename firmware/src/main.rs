@@ -376,7 +376,7 @@ mod fw {
             }
             (Some(_), None) => {
                 hprintln!(
-                    "ERROR: a row dump without a plan (put the plan's 64 bytes in the mailbox at {:#010x}: run-qemu.sh --plan)",
+                    "ERROR: a row dump without a plan (put the plan's 80 bytes in the mailbox at {:#010x}: run-qemu.sh --plan)",
                     layout::PLAN_DESC_ADDR
                 );
                 exit(EXIT_BAD_INPUT)

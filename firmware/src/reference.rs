@@ -21,7 +21,7 @@ pub fn decode_dump(plan: &ScanPlan, dump: &[u8]) -> Result<Vec<u8>, String> {
     header.check_plan(plan).map_err(|e| e.to_string())?;
     let record_len = header.record_len().ok_or("row dump: rows too large")?;
     let body = &dump[HEADER_LEN..];
-    if body.len() % record_len != 0 {
+    if !body.len().is_multiple_of(record_len) {
         return Err(format!(
             "row dump: {} bytes of records is not a whole number of {record_len}-byte records",
             body.len()

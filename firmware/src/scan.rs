@@ -11,7 +11,7 @@ use fsm_core::wire::row_dump::{self, RowDumpHeader};
 use fsm_core::wire::WireError;
 use fsm_core::{Decoder, Row, RowError, ScanPlan};
 
-use crate::limits::{Pixel, CANDIDATE_CAPACITY, MAX_ROW_SAMPLES, MAX_WIDTH};
+use crate::limits::{Pixel, CANDIDATE_CAPACITY, LANES, MAX_ROW_SAMPLES, MAX_WIDTH};
 
 /// The geometry of a scan and the headers of its two kinds of streams.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -262,7 +262,7 @@ pub fn decode_row<P: Probe>(
             Ok(())
         })
     } else {
-        decoder.decode_row(&frames, buffers.scratch, pixels)
+        decoder.decode_row_lanes::<LANES, CANDIDATE_CAPACITY>(&frames, buffers.scratch, pixels)
     };
     decoded.map_err(|error| RowFailure::Decode { row, error })?;
     let len =

@@ -59,7 +59,7 @@ pub fn script(plan: &ScanPlan, dump: &[u8], bad_input: bool) -> Result<Script, S
     header.check_plan(plan).map_err(|e| e.to_string())?;
     let len = header.record_len().ok_or("row dump: rows too large")?;
     let body = &dump[HEADER_LEN..];
-    if body.is_empty() || body.len() % len != 0 {
+    if body.is_empty() || !body.len().is_multiple_of(len) {
         return Err(format!(
             "row dump: {} bytes of records is not a whole, non-zero number of {len}-byte records",
             body.len()

@@ -64,7 +64,7 @@ fn request(kind: u8, bytes: &[u8], fingerprint: u64, w: u32, h: u32, depth: u8) 
             width: w,
             height: h,
             bit_depth: depth,
-            output: if w % 2 == 0 {
+            output: if w.is_multiple_of(2) {
                 RowOutput::Candidates
             } else {
                 RowOutput::Raw

@@ -57,7 +57,7 @@ fn sample(
     let cmax = plan.projector_columns as u32;
     let direct = (x * cmax / width + y) % cmax;
     let mut light = 2400.0 * plan.intensity(pattern, direct);
-    if (x + y) % 4 == 0 {
+    if (x + y).is_multiple_of(4) {
         light += 700.0 * plan.intensity(pattern, (direct + 311) % cmax);
     }
     let hash = (x.wrapping_mul(73_856_093)

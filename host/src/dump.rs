@@ -280,11 +280,11 @@ impl<R: Read> DumpReader<R> {
         self.record_len
     }
 
-    /// Checks that the dump was made with `plan` (fingerprint and frame count) and, if given,
-    /// at `bit_depth`.
+    /// Checks that the dump was made with `plan` (fingerprint, or the one a version-1 plan had,
+    /// and frame count) and, if given, at `bit_depth`.
     pub fn check(&self, plan: &ScanPlan, bit_depth: Option<u8>) -> Result<(), DumpError> {
         let expected = plan.fingerprint();
-        if self.header.plan_fingerprint != expected {
+        if !plan.has_fingerprint(self.header.plan_fingerprint) {
             return Err(DumpError::PlanMismatch {
                 path: self.path.clone(),
                 found: self.header.plan_fingerprint,

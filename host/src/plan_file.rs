@@ -370,16 +370,23 @@ mod tests {
 
     #[test]
     fn a_plan_file_without_the_search_decodes_with_clean() {
-        // Plan files written before `decoding.search` existed.
-        let plan = Preset::PaperEfsm2.plan();
+        // Plan files written before `decoding.search` existed, and before `decoding.sensor`.
+        let plan = Preset::PaperEfsm2.plan().with_clean();
         let text = render_plan(&plan, PlanSyntax::Toml);
         assert!(text.contains("search = \"Clean\""), "{text}");
+        assert!(text.contains("[decoding.sensor]"), "{text}");
         let old: String = text
+            .split("[decoding.sensor]")
+            .next()
+            .unwrap()
             .lines()
             .filter(|l| !l.starts_with("search ="))
             .map(|l| format!("{l}\n"))
             .collect();
         assert_eq!(parse_plan(&old, PlanSyntax::Toml).unwrap(), plan);
+        // Today's presets decode with the cosine search.
+        let text = render_plan(&Preset::PaperEfsm2.plan(), PlanSyntax::Toml);
+        assert!(text.contains("search = \"Cosine\""), "{text}");
         let fast = Preset::PaperEfsm2Fast.plan();
         let text = render_plan(&fast, PlanSyntax::Toml);
         assert!(text.contains("search = \"LocalMaxima\""), "{text}");
@@ -393,7 +400,7 @@ mod tests {
         let e = parse_plan(&bad, PlanSyntax::Toml).unwrap_err();
         assert!(e.to_string().contains("band.count"), "{e}");
 
-        let bad = text.replace("noise_factor = 4.0", "noise_factr = 4.0");
+        let bad = text.replace("noise_factor = 5.0", "noise_factr = 5.0");
         let e = parse_plan(&bad, PlanSyntax::Toml).unwrap_err().to_string();
         assert!(
             e.contains("noise_factor") || e.contains("noise_factr"),

@@ -569,7 +569,7 @@ impl ResponseEstimator {
             message,
         })?;
         let last = codes.len() - 1;
-        if dark.is_empty() || width == 0 || dark.len() % width != 0 {
+        if dark.is_empty() || width == 0 || !dark.len().is_multiple_of(width) {
             return Err(level_error(
                 0,
                 format!("{} samples are not whole rows of {width}", dark.len()),

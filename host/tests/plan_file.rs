@@ -42,7 +42,7 @@ fn presets() -> [ScanPlan; 3] {
 }
 
 /// Field names a rule message may mention.
-const FIELD_NAMES: [&str; 21] = [
+const FIELD_NAMES: [&str; 23] = [
     "projector_columns",
     "transform_size",
     "period_columns",
@@ -64,6 +64,8 @@ const FIELD_NAMES: [&str; 21] = [
     "mask_noise_factor",
     "mask_relative_floor",
     "merge_tolerance",
+    "full_scale_electrons",
+    "read_noise_electrons",
 ];
 
 fn arbitrary_value() -> impl Strategy<Value = Value> {

@@ -16,7 +16,8 @@ use deconvolution::ColumnWeights;
 /// Half-width plus one of the magnitude neighbourhood the estimators read: Blais–Rioux 8 reads `F[p±5]`.
 pub const NEIGHBOURHOOD: usize = 6;
 
-/// One peak of one spectrum: light from one or a few adjacent projector columns.
+/// One peak of one spectrum, or one light of a cosine profile: light from one or a few
+/// adjacent projector columns.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Peak {
@@ -24,12 +25,14 @@ pub struct Peak {
     pub column: f32,
     /// Fringe modulation of its light, sensor DN: the sum of the non-negative column weights.
     pub amplitude: f32,
-    /// `|X|` of the isolated peak at `bin`.
+    /// `|X|` of the isolated peak at `bin` (DFT searches), or the light's largest column
+    /// weight (cosine search), sensor DN.
     pub magnitude: f32,
-    /// Bin of the isolated peak's maximum.
+    /// Bin of the isolated peak's maximum, or the column of the light's largest weight.
     pub bin: u16,
     /// The fitted column weights (SPEC §2 local deconvolution); none (`len` 0) when the
-    /// local-maximum search measured the peak with a magnitude estimator.
+    /// local-maximum search measured the peak with a magnitude estimator, or for a light of
+    /// the cosine search (its weights are the profile's own columns).
     pub weights: ColumnWeights,
 }
 
@@ -38,8 +41,13 @@ pub struct Peak {
 pub struct PeakList {
     /// Peaks in the order found (strongest first).
     pub peaks: Vec<Peak, MAX_PEAKS>,
-    /// RMS noise of one complex bin of the final residual (spectrum units).
+    /// RMS noise of one complex bin of the final residual (spectrum units); the cosine search
+    /// leaves it 0 (its noise is the sensor's, known before the search).
     pub bin_noise: f32,
+    /// The cosine search saw two lights it could not separate: two maxima with a dip between
+    /// them well above the noise but not deep enough to tell their footprints apart. The peak
+    /// it reports for them is their mixture.
+    pub unresolved: bool,
 }
 
 /// Magnitudes `F[p−5 ..= p+5]` around a peak bin `p`; bins outside

@@ -157,25 +157,62 @@ pub enum PeakEstimator {
     BlaisRioux8,
 }
 
-/// How the decoder finds the peaks of a spectrum (SPEC §2 "Finding the candidates").
+/// How the decoder finds the lights of a pixel (SPEC §2 "Finding the candidates", §2b).
 ///
-/// [`PeakSearch::Clean`] is the default, chosen by measurement: it separates a direct and an
-/// indirect light two resolution steps apart and reports no sidelobe, at about 10× the cost.
-/// [`PeakSearch::LocalMaxima`] is the paper's detector, for a camera that must keep up with the
-/// frame rate, where each camera pixel sees at most about 3 projector columns (a wider light's
-/// magnitude peaks at its two edges: `tests/local_maxima.rs`). Use it with the Hann window
-/// ([`DecodeSettings::local_maxima`]), whose sidelobes (−31 dB) stay under a relative floor of a
-/// few percent, where the rectangular window's (−13 dB) would be reported as light.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// [`PeakSearch::Cosine`] is the default of every plan whose band is full (`Δf = 1/(2·span)`,
+/// harmonics `1..=span`, dark and white frames): the samples are then exactly a cosine
+/// transform of the pixel's column profile, and its inverse gives every column's light at once,
+/// with no window, sidelobe or iteration (SPEC §2b). [`PeakSearch::Clean`] is for plans with a
+/// partial band: it removes each peak's modelled spectrum from the zero-padded DFT.
+/// [`PeakSearch::LocalMaxima`] is the paper's own detector, kept to compare with the paper; use
+/// it with the Hann window ([`DecodeSettings::local_maxima`]), whose sidelobes (−31 dB) stay
+/// under a relative floor of a few percent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum PeakSearch {
     /// Strongest peak, fit, subtract its modelled spectrum, repeat ([`crate::search::clean`]).
-    #[default]
     Clean,
     /// Every local maximum of `|X_k|` above the noise and relative floors, one pass, nothing
     /// subtracted ([`crate::search::local_maxima`]).
     LocalMaxima,
+    /// The exact inverse cosine transform of the full band, lights as runs of lit columns
+    /// ([`crate::search::cosine`]).
+    Cosine,
+}
+
+impl PeakSearch {
+    /// What a plan file without a `search` field means: it was written before the field
+    /// existed, when every plan was decoded by CLEAN.
+    pub fn unstated() -> Self {
+        PeakSearch::Clean
+    }
+}
+
+/// The camera sensor's noise, from which the cosine search sets its threshold (SPEC §2b): read
+/// noise and photon shot noise, in electrons, scaled to codes by the row's bit depth. A
+/// datasheet (EMVA 1288) gives both; with analog gain, the full-scale charge is the full well
+/// divided by the gain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct SensorNoise {
+    /// Photo-electrons that reach the top code `2^bits − 1`.
+    pub full_scale_electrons: f32,
+    /// Read noise RMS, electrons.
+    pub read_noise_electrons: f32,
+}
+
+impl Default for SensorNoise {
+    /// A typical machine-vision CMOS sensor: 10 000 e⁻ at full scale, 6 e⁻ read noise. A
+    /// smaller full-scale charge than the real one overstates the shot noise: a higher
+    /// threshold, no false light.
+    fn default() -> Self {
+        SensorNoise {
+            full_scale_electrons: 10_000.0,
+            read_noise_electrons: 6.0,
+        }
+    }
 }
 
 /// Decoder thresholds and choices; they are part of the plan so that the camera and the host
@@ -185,7 +222,7 @@ pub enum PeakSearch {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct DecodeSettings {
     /// Peak search; plan files written before it existed mean [`PeakSearch::Clean`].
-    #[cfg_attr(feature = "serde", serde(default))]
+    #[cfg_attr(feature = "serde", serde(default = "PeakSearch::unstated"))]
     pub search: PeakSearch,
     /// Window applied to the fringe samples.
     pub window: Window,
@@ -207,10 +244,36 @@ pub struct DecodeSettings {
     /// EFSM: candidates of the two groups closer than this (columns) are one candidate: their
     /// mean where both groups see it well inside a block, else the view further from a border.
     pub merge_tolerance: f32,
+    /// The sensor's noise: the cosine search's threshold. Plan files written before it
+    /// existed mean the default.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub sensor: SensorNoise,
 }
 
 impl Default for DecodeSettings {
+    /// The cosine search ([`DecodeSettings::cosine`]).
     fn default() -> Self {
+        DecodeSettings::cosine()
+    }
+}
+
+impl DecodeSettings {
+    /// The exact decoder of a full band (SPEC §2b): every column's light from the inverse cosine
+    /// transform, a light where the profile exceeds 5 times its noise RMS, which the sensor
+    /// sets ([`SensorNoise`]). The profile has `span + 1` columns of white noise, so at 5 RMS
+    /// a pixel in shadow shows a false light with probability `2.9·10⁻⁷·(span + 1)` (2·10⁻⁴
+    /// for BFSM's 769 columns).
+    pub fn cosine() -> Self {
+        DecodeSettings {
+            search: PeakSearch::Cosine,
+            noise_factor: 5.0,
+            ..DecodeSettings::clean()
+        }
+    }
+
+    /// CLEAN on the zero-padded DFT (SPEC §2): the deconvolution estimator, a noise factor of
+    /// 4 against the residual's own noise, a relative floor of 2%.
+    pub fn clean() -> Self {
         DecodeSettings {
             search: PeakSearch::Clean,
             window: Window::Rectangular,
@@ -222,14 +285,13 @@ impl Default for DecodeSettings {
             mask_noise_factor: 5.0,
             mask_relative_floor: 0.05,
             merge_tolerance: 0.5,
+            sensor: SensorNoise::default(),
         }
     }
-}
 
-impl DecodeSettings {
     /// The paper's decoder (§III-D): local maxima of the Hann-windowed spectrum, the 3-point
     /// Gaussian fit, a relative floor of 8%, a noise factor of 5; the other thresholds as
-    /// [`DecodeSettings::default`].
+    /// [`DecodeSettings::clean`].
     ///
     /// The floor sits above the Hann window's −31 dB sidelobes (2.7%) and above the sidelobe a
     /// light one column from a block border shows where its peak meets its mirror image: 5%
@@ -244,7 +306,7 @@ impl DecodeSettings {
             estimator: PeakEstimator::Gaussian,
             relative_floor: 0.08,
             noise_factor: 5.0,
-            ..DecodeSettings::default()
+            ..DecodeSettings::clean()
         }
     }
 }
@@ -304,6 +366,20 @@ pub enum PlanError {
     DecodeThreshold { field: &'static str, value: f32 },
     /// The local-maximum search needs [`LOCAL_MAXIMA_MIN_FRINGES`] fringes.
     LocalMaximaTooFewFringes { count: u16, min: u16 },
+    /// The sensor's full-scale charge is not a positive number.
+    SensorFullScale { value: f32 },
+    /// The cosine search needs the full band: `n₁ = 1`, `M = L/2`.
+    CosineNeedsFullBand {
+        first_harmonic: u32,
+        count: u16,
+        period_columns: u32,
+    },
+    /// The cosine search takes its `h = 0` term from the dark and white frames.
+    CosineNeedsReferences,
+    /// The cosine search uses no window.
+    CosineWindow,
+    /// The cosine search measures a light by its column weights.
+    CosineEstimator { estimator: PeakEstimator },
 }
 
 impl fmt::Display for PlanError {
@@ -366,6 +442,34 @@ impl fmt::Display for PlanError {
             PlanError::DecodeThreshold { field, value } => {
                 write!(f, "decoding.{field} = {value}: must be finite and not negative")
             }
+            PlanError::SensorFullScale { value } => write!(
+                f,
+                "decoding.sensor.full_scale_electrons = {value}: must be finite and above 0"
+            ),
+            PlanError::CosineNeedsFullBand {
+                first_harmonic,
+                count,
+                period_columns,
+            } => write!(
+                f,
+                "band.first_harmonic = {first_harmonic}, band.count = {count}, band.period_columns = \
+                 {period_columns}: decoding.search = Cosine needs the full band (first_harmonic = 1, \
+                 count = period_columns / 2); use Clean for a partial band"
+            ),
+            PlanError::CosineNeedsReferences => write!(
+                f,
+                "references.dark and references.white must both be true: decoding.search = Cosine \
+                 takes the transform's zero-frequency term from them"
+            ),
+            PlanError::CosineWindow => write!(
+                f,
+                "decoding.window = Hann: decoding.search = Cosine uses no window (set Rectangular)"
+            ),
+            PlanError::CosineEstimator { estimator } => write!(
+                f,
+                "decoding.estimator = {estimator:?}: decoding.search = Cosine measures a light by \
+                 the centroid of its column weights (set Deconvolution)"
+            ),
             PlanError::LocalMaximaTooFewFringes { count, min } => write!(
                 f,
                 "band.count = {count}: decoding.search = LocalMaxima needs at least {min} \
@@ -442,6 +546,13 @@ impl ScanPlan {
             },
             decoding: DecodeSettings::default(),
         }
+    }
+
+    /// This plan decoded by CLEAN on the zero-padded DFT ([`DecodeSettings::clean`]), as every
+    /// plan was before the cosine search: the patterns and `N` are unchanged.
+    pub fn with_clean(mut self) -> Self {
+        self.decoding = DecodeSettings::clean();
+        self
     }
 
     /// This plan decoded for speed: the paper's local-maximum search
@@ -521,7 +632,7 @@ impl ScanPlan {
             });
         }
         let entries = self.kernel_table_len();
-        if entries > MAX_KERNEL_TABLE_LEN {
+        if self.decoding.search != PeakSearch::Cosine && entries > MAX_KERNEL_TABLE_LEN {
             return Err(PlanError::KernelTable {
                 entries,
                 max: MAX_KERNEL_TABLE_LEN,
@@ -549,11 +660,16 @@ impl ScanPlan {
             ("mask_noise_factor", d.mask_noise_factor),
             ("mask_relative_floor", d.mask_relative_floor),
             ("merge_tolerance", d.merge_tolerance),
+            ("sensor.read_noise_electrons", d.sensor.read_noise_electrons),
         ];
         for (field, value) in thresholds {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(PlanError::DecodeThreshold { field, value });
             }
+        }
+        let full_scale = d.sensor.full_scale_electrons;
+        if !(full_scale.is_finite() && full_scale > 0.0) {
+            return Err(PlanError::SensorFullScale { value: full_scale });
         }
         let min = LOCAL_MAXIMA_MIN_FRINGES;
         if d.search == PeakSearch::LocalMaxima && band.count < min {
@@ -562,7 +678,37 @@ impl ScanPlan {
                 min,
             });
         }
+        if d.search == PeakSearch::Cosine {
+            if self.full_band_span().is_none() {
+                return Err(PlanError::CosineNeedsFullBand {
+                    first_harmonic: band.first_harmonic,
+                    count: band.count,
+                    period_columns: band.period_columns,
+                });
+            }
+            if !(self.references.dark && self.references.white) {
+                return Err(PlanError::CosineNeedsReferences);
+            }
+            if d.window != Window::Rectangular {
+                return Err(PlanError::CosineWindow);
+            }
+            if d.estimator != PeakEstimator::Deconvolution {
+                return Err(PlanError::CosineEstimator {
+                    estimator: d.estimator,
+                });
+            }
+        }
         Ok(())
+    }
+
+    /// `L/2` when the band is full (`n₁ = 1`, `M = L/2`: harmonics `1..=L/2` of `1/L`): the
+    /// fringes and the dark and white frames are then exactly a cosine transform of `L/2 + 1`
+    /// columns, `0..=L/2` (SPEC §2b).
+    pub fn full_band_span(&self) -> Option<u16> {
+        let band = self.band;
+        let half = band.period_columns / 2;
+        (band.first_harmonic == 1 && band.period_columns.is_multiple_of(2) && band.count as u32 == half)
+            .then_some(band.count)
     }
 
     /// The columns one fringe period covers: `cmax` (BFSM) or `cB` (EFSM).

@@ -5,8 +5,10 @@
 //! |---|---|---|
 //! | CLEAN: strongest peak, fit, subtract its model, repeat | [`clean`] | zero-padded DFT |
 //! | the paper's local maxima of the Hann-windowed magnitude | [`local_maxima`] | zero-padded DFT |
+//! | lights as runs of the column profile | [`cosine`] | inverse cosine transform |
 
 pub mod clean;
+pub mod cosine;
 pub mod local_maxima;
 
 /// Most bins the noise median of a DFT search is taken over.

@@ -1,8 +1,9 @@
-//! The canonical 64-byte encoding of a scan plan, and its fingerprint.
+//! The canonical 80-byte encoding of a scan plan, and its fingerprint.
 //!
 //! Every file and message that depends on a plan carries the plan's fingerprint (CRC-64/XZ of
 //! these bytes), so a dump recorded with one plan cannot be decoded with another. The same
-//! bytes are the compact form a camera stores. Little-endian:
+//! bytes are the compact form a camera stores. Little-endian (version 2; version 1 was the
+//! first 64 bytes alone, and is still read):
 //!
 //! | offset | type | field |
 //! |---|---|---|
@@ -14,7 +15,7 @@
 //! | 14 | u8 | method: 0 BFSM, 1 EFSM |
 //! | 15 | u8 | EFSM groups: 1 or 2 (0 for BFSM) |
 //! | 16 | u16 | EFSM `block_width` (0 for BFSM) |
-//! | 18 | u8 | peak search: 0 CLEAN, 1 local maxima |
+//! | 18 | u8 | peak search: 0 CLEAN, 1 local maxima, 2 cosine (version 2) |
 //! | 19 | u8 | reserved, 0 |
 //! | 20 | f32 | EFSM `border_guard` (0 for BFSM) |
 //! | 24 | f32 | `levels.offset` (`PA`) |
@@ -24,19 +25,28 @@
 //! | 34 | u8 | estimator: 0 deconvolution, 1 Gaussian, 2 parabolic, 3 Blais–Rioux 4, 4 Blais–Rioux 8 |
 //! | 35 | u8 | `max_peaks` |
 //! | 36 | f32 × 6 | `noise_factor`, `relative_floor`, `min_amplitude_dn`, `mask_noise_factor`, `mask_relative_floor`, `merge_tolerance` |
-//! | 60 | u16 | format version, 1 |
+//! | 60 | u16 | format version, 2 |
 //! | 62 | u16 | reserved, 0 |
+//! | 64 | f32 | `sensor.full_scale_electrons` |
+//! | 68 | f32 | `sensor.read_noise_electrons` |
+//! | 72 | `[u8; 8]` | reserved, 0 |
+//!
+//! A version-1 plan reads as the same plan with [`SensorNoise::default`] (the fields it lacks
+//! only matter to the cosine search, which version 1 cannot name), and keeps its fingerprint
+//! for the files recorded with it: [`ScanPlan::legacy_fingerprint`].
 
 use super::{Reader, WireError, Writer, CRC64};
 use crate::plan::{
     BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,
-    PeakSearch, References, ScanPlan, Window,
+    PeakSearch, References, ScanPlan, SensorNoise, Window,
 };
 
 /// Length of an encoded plan.
-pub const PLAN_LEN: usize = 64;
-/// Version of the plan encoding this build writes and reads.
-pub const PLAN_VERSION: u16 = 1;
+pub const PLAN_LEN: usize = 80;
+/// Version of the plan encoding this build writes (it also reads version 1).
+pub const PLAN_VERSION: u16 = 2;
+/// Length of a version-1 plan.
+pub const PLAN_V1_LEN: usize = 64;
 
 const WHAT: &str = "scan plan";
 
@@ -44,7 +54,28 @@ impl ScanPlan {
     /// The canonical bytes of the plan.
     pub fn to_bytes(&self) -> [u8; PLAN_LEN] {
         let mut out = [0u8; PLAN_LEN];
-        let mut w = Writer::new(&mut out);
+        self.write_common(&mut out, PLAN_VERSION);
+        let mut w = Writer::new(&mut out[PLAN_V1_LEN..]);
+        w.f32(self.decoding.sensor.full_scale_electrons);
+        w.f32(self.decoding.sensor.read_noise_electrons);
+        out
+    }
+
+    /// The version-1 bytes of a plan that version 1 can express (not the cosine search, the
+    /// default sensor): what files recorded before version 2 carry the fingerprint of.
+    fn v1_bytes(&self) -> Option<[u8; PLAN_V1_LEN]> {
+        let expressible = self.decoding.search != PeakSearch::Cosine
+            && self.decoding.sensor == SensorNoise::default();
+        expressible.then(|| {
+            let mut out = [0u8; PLAN_V1_LEN];
+            self.write_common(&mut out, 1);
+            out
+        })
+    }
+
+    /// Bytes 0..64, shared by both versions.
+    fn write_common(&self, out: &mut [u8], version: u16) {
+        let mut w = Writer::new(&mut out[..PLAN_V1_LEN]);
         w.u16(self.projector_columns);
         w.u16(self.transform_size);
         w.u32(self.band.period_columns);
@@ -66,6 +97,7 @@ impl ScanPlan {
         w.u8(match self.decoding.search {
             PeakSearch::Clean => 0,
             PeakSearch::LocalMaxima => 1,
+            PeakSearch::Cosine => 2,
         });
         w.u8(0);
         w.f32(guard);
@@ -95,35 +127,51 @@ impl ScanPlan {
         ] {
             w.f32(v);
         }
-        w.u16(PLAN_VERSION);
+        w.u16(version);
         w.u16(0);
-        out
     }
 
-    /// Decodes and validates canonical plan bytes.
+    /// Decodes and validates canonical plan bytes: version 2 (80 bytes), or version 1 (64).
     pub fn from_bytes(bytes: &[u8]) -> Result<ScanPlan, WireError> {
-        if bytes.len() < PLAN_LEN {
-            return Err(WireError::Truncated {
-                what: WHAT,
-                needed: PLAN_LEN,
-                got: bytes.len(),
-            });
+        let truncated = |needed: usize| WireError::Truncated {
+            what: WHAT,
+            needed,
+            got: bytes.len(),
+        };
+        if bytes.len() < PLAN_V1_LEN {
+            return Err(truncated(PLAN_V1_LEN));
         }
         let field = |field: &'static str, value: u64| WireError::Field {
             what: WHAT,
             field,
             value,
         };
-        let mut tail = Reader::new(&bytes[60..PLAN_LEN]);
-        let version = tail.u16();
-        if version != PLAN_VERSION {
-            return Err(WireError::Version {
-                what: WHAT,
-                version,
-                supported: PLAN_VERSION,
-            });
-        }
-        let mut r = Reader::new(&bytes[..PLAN_LEN]);
+        let version = Reader::new(&bytes[60..62]).u16();
+        let sensor = match version {
+            1 => SensorNoise::default(),
+            PLAN_VERSION => {
+                let extension = bytes
+                    .get(PLAN_V1_LEN..PLAN_LEN)
+                    .ok_or(truncated(PLAN_LEN))?;
+                let mut r = Reader::new(extension);
+                let sensor = SensorNoise {
+                    full_scale_electrons: r.f32(),
+                    read_noise_electrons: r.f32(),
+                };
+                if let Some(&b) = extension[8..].iter().find(|&&b| b != 0) {
+                    return Err(field("reserved", b as u64));
+                }
+                sensor
+            }
+            _ => {
+                return Err(WireError::Version {
+                    what: WHAT,
+                    version,
+                    supported: PLAN_VERSION,
+                })
+            }
+        };
+        let mut r = Reader::new(&bytes[..PLAN_V1_LEN]);
         let projector_columns = r.u16();
         let transform_size = r.u16();
         let band = FringeBand {
@@ -133,10 +181,11 @@ impl ScanPlan {
         };
         let (method, groups, block_width, search, reserved, border_guard) =
             (r.u8(), r.u8(), r.u16(), r.u8(), r.u8(), r.f32());
-        let search = match search {
-            0 => PeakSearch::Clean,
-            1 => PeakSearch::LocalMaxima,
-            v => return Err(field("search", v as u64)),
+        let search = match (search, version) {
+            (0, _) => PeakSearch::Clean,
+            (1, _) => PeakSearch::LocalMaxima,
+            (2, PLAN_VERSION) => PeakSearch::Cosine,
+            (v, _) => return Err(field("search", v as u64)),
         };
         if reserved != 0 {
             return Err(field("reserved", reserved as u64));
@@ -197,6 +246,7 @@ impl ScanPlan {
             mask_noise_factor: r.f32(),
             mask_relative_floor: r.f32(),
             merge_tolerance: r.f32(),
+            sensor,
         };
         let _version = r.u16();
         let reserved = r.u16();
@@ -219,5 +269,17 @@ impl ScanPlan {
     /// CRC-64/XZ of the canonical bytes: the identity every dependent file and message carries.
     pub fn fingerprint(&self) -> u64 {
         CRC64.checksum(&self.to_bytes())
+    }
+
+    /// The fingerprint files recorded before plan version 2 carry for this plan (CRC-64 of its
+    /// version-1 bytes), or `None` where version 1 cannot express it.
+    pub fn legacy_fingerprint(&self) -> Option<u64> {
+        self.v1_bytes().map(|b| CRC64.checksum(&b))
+    }
+
+    /// Whether a file or message stating `fingerprint` was made with this plan: its
+    /// fingerprint, or its version-1 one.
+    pub fn has_fingerprint(&self, fingerprint: u64) -> bool {
+        fingerprint == self.fingerprint() || self.legacy_fingerprint() == Some(fingerprint)
     }
 }

@@ -1,7 +1,20 @@
 //! Synthetic pixels for the core tests: a camera pixel that sees given projector columns.
 #![allow(dead_code)]
 
-use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
+use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan, SensorNoise};
+
+/// The sensor the synthetic pixels come from, as a plan states it: 1 DN of read noise at 12
+/// bits and no shot noise (a full-scale charge so large that its shot noise vanishes).
+pub const SYNTHETIC_SENSOR: SensorNoise = SensorNoise {
+    full_scale_electrons: 4095.0e6,
+    read_noise_electrons: 1.0e6,
+};
+
+/// `plan` told that its samples come from [`SYNTHETIC_SENSOR`].
+pub fn synthetic(mut plan: ScanPlan) -> ScanPlan {
+    plan.decoding.sensor = SYNTHETIC_SENSOR;
+    plan
+}
 
 /// Deterministic normal deviates (splitmix64 + Box–Muller): tests need no extra crates.
 pub struct Noise {
@@ -146,7 +159,9 @@ pub struct Harness {
 }
 
 impl Harness {
+    /// A decoder of `plan` told the noise of the synthetic pixels ([`synthetic`]).
     pub fn new(plan: ScanPlan) -> Self {
+        let plan = synthetic(plan);
         let tables: &'static mut [f32] =
             Box::leak(vec![0.0; Decoder::tables_len(&plan)].into_boxed_slice());
         let decoder = Decoder::new(&plan, tables).expect("valid plan");

@@ -385,7 +385,7 @@ impl<L: Read + Write> Client<L> {
             value: header.width as u64,
         }))?;
         let body = &dump[HEADER_LEN..];
-        if body.len() % record_len != 0 {
+        if !body.len().is_multiple_of(record_len) {
             return Err(wire(WireError::Truncated {
                 what: "row dump",
                 needed: (body.len() / record_len + 1) * record_len + HEADER_LEN,

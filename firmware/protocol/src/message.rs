@@ -15,13 +15,13 @@ use crate::frame::FrameError;
 pub enum Request<'a> {
     /// Who are you and how much can you take? Answered by [`Response::Info`].
     Hello,
-    /// Load a scan plan: its 64 canonical bytes (`ScanPlan::to_bytes`) and the fingerprint
+    /// Load a scan plan: its 80 canonical bytes (`ScanPlan::to_bytes`) and the fingerprint
     /// the host computed (`ScanPlan::fingerprint`). The camera recomputes the fingerprint from
     /// the bytes it received and loads the plan only if the two agree; answered by
     /// [`Response::PlanAccepted`] with that fingerprint. A rejected plan leaves the loaded one
     /// in place.
     UploadPlan {
-        /// `ScanPlan::to_bytes()`, 64 bytes.
+        /// `ScanPlan::to_bytes()`, 80 bytes.
         plan: &'a [u8],
         /// `ScanPlan::fingerprint()` of those bytes, as the host computed it.
         fingerprint: u64,
@@ -131,7 +131,7 @@ pub enum DeviceError<'a> {
         /// What the camera is doing.
         state: DeviceState,
     },
-    /// The plan bytes are not 64 bytes long.
+    /// The plan bytes are not `PLAN_LEN` (80) bytes long.
     PlanLength {
         /// Bytes received.
         got: u32,

@@ -301,7 +301,7 @@ fn a_foreign_plan_or_a_damaged_dump_is_refused() {
         "--preset",
         "paper-efsm-2",
         "--set",
-        "decoding.noise_factor=5",
+        "decoding.noise_factor=6",
         "--out",
         s(&other),
     ]);

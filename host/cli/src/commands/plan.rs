@@ -34,7 +34,7 @@ pub struct Args {
     /// Check a plan file: print what it describes, or the first field that is wrong.
     #[arg(long, value_name = "FILE")]
     check: Option<PathBuf>,
-    /// Also write the plan's 64-byte wire form (fsm_core::wire::plan: the bytes `fsm upload`
+    /// Also write the plan's 80-byte wire form (fsm_core::wire::plan: the bytes `fsm upload`
     /// sends and the firmware's plan mailbox takes), with --preset or --check.
     #[arg(long, value_name = "FILE")]
     wire: Option<PathBuf>,

@@ -5,6 +5,19 @@
 //! 8- to 16-bit sensor. The caller owns every buffer: the plan's tables (built once per plan)
 //! and a scratch area reused from row to row. Nothing but the plan carries over between rows,
 //! and no input (zero, constant, saturated) makes the decoder panic.
+//!
+//! Two paths, by the plan's search:
+//! - [`cosine`]: the cosine search decodes `L` adjacent pixels at once, one lane each, through
+//!   one lane-parallel inverse cosine transform (the host picks a wide `L`, the camera `L = 1`;
+//!   the candidates are the same bits);
+//! - [`spectral`]: CLEAN and the local-maximum search decode pixel by pixel from the
+//!   zero-padded DFT.
+//!
+//! Both hand each group's peaks to [`Decoder::add_group`], which turns them into candidates
+//! (BFSM directly, EFSM with the block masks, [`crate::block`]).
+
+mod cosine;
+mod spectral;
 
 use core::fmt;
 
@@ -14,9 +27,17 @@ use crate::peak::deconvolution::FitTable;
 use crate::peak::PeakList;
 use crate::plan::sequence::Group;
 use crate::plan::{Method, PeakSearch, PlanError, ScanPlan, Window};
-use crate::search::{clean, local_maxima};
 use crate::transform::kernel::{self, Kernel};
-use crate::transform::spectrum::{self, Spectrum};
+use crate::transform::spectrum::Spectrum;
+use crate::transform::CosineTransform;
+
+/// Pixels [`Decoder::decode_row`] decodes at once: wide on the host, where the lanes become
+/// vector registers, one on the camera's scalar core (see [`Decoder::decode_row_lanes`]).
+#[cfg(target_arch = "x86_64")]
+pub const DEFAULT_LANES: usize = 8;
+/// Pixels [`Decoder::decode_row`] decodes at once (one lane: the camera's scalar core).
+#[cfg(not(target_arch = "x86_64"))]
+pub const DEFAULT_LANES: usize = 1;
 
 /// One temporal row of captured frames.
 #[derive(Clone, Copy, Debug)]
@@ -117,6 +138,20 @@ impl From<PlanError> for DecoderError {
 #[derive(Clone, Copy, Debug)]
 pub struct Decoder<'t> {
     plan: ScanPlan,
+    tables: Tables<'t>,
+}
+
+/// The tables of the plan's search.
+#[derive(Clone, Copy, Debug)]
+enum Tables<'t> {
+    /// CLEAN and local maxima: the column kernel, the fit operators, the window.
+    Spectral(SpectralTables<'t>),
+    /// The cosine search: the inverse cosine transform of the full band.
+    Cosine(CosineTransform<'t>),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct SpectralTables<'t> {
     kernel: Kernel<'t>,
     fits: FitTable<'t>,
     window: &'t [f32],
@@ -127,15 +162,31 @@ pub struct Decoder<'t> {
 
 impl<'t> Decoder<'t> {
     /// Floats of table storage a decoder of `plan` needs: a header holding the plan's
-    /// fingerprint, the kernel, the fit operators and the window.
+    /// fingerprint, then the cosine transform (cosine search), or the kernel, the fit operators
+    /// and the window (DFT searches).
     pub fn tables_len(plan: &ScanPlan) -> usize {
-        TABLES_HEADER + Kernel::storage_len(plan) + FitTable::storage_len(plan) + window_len(plan)
+        TABLES_HEADER
+            + match cosine_span(plan) {
+                Some(span) => CosineTransform::tables_len(span as usize),
+                None => Kernel::storage_len(plan) + FitTable::storage_len(plan) + window_len(plan),
+            }
     }
 
-    /// Floats of scratch [`Decoder::decode_row`] needs: one spectrum and one bin per power.
+    /// Floats of scratch [`Decoder::decode_row`] and every other method need.
     pub fn scratch_len(plan: &ScanPlan) -> usize {
-        let n = plan.transform_size as usize;
-        (n + 2) + (n / 2 + 1)
+        Self::scratch_len_lanes::<DEFAULT_LANES>(plan)
+    }
+
+    /// Floats of scratch [`Decoder::decode_row_lanes`] with `L` lanes needs (and enough for
+    /// one pixel's spectrum, [`Decoder::spectrum`]).
+    pub fn scratch_len_lanes<const L: usize>(plan: &ScanPlan) -> usize {
+        let dft = spectral::scratch_len(plan);
+        match cosine_span(plan) {
+            Some(span) => {
+                dft.max(cosine::scratch_len::<L>(span).max(cosine::scratch_len::<1>(span)))
+            }
+            None => dft,
+        }
     }
 
     /// Validates `plan` and builds its tables in `tables`, then borrows them.
@@ -156,6 +207,9 @@ impl<'t> Decoder<'t> {
         let tables = tables.get_mut(..needed).ok_or(too_short)?;
         let (header, rest) = tables.split_at_mut(TABLES_HEADER);
         header.copy_from_slice(&fingerprint_floats(plan));
+        if let Some(span) = cosine_span(plan) {
+            return CosineTransform::build(span as usize, rest).map_err(|_| too_short);
+        }
         let (kernel_storage, rest) = rest.split_at_mut(Kernel::storage_len(plan));
         Kernel::build(plan, kernel_storage).ok_or(too_short)?;
         let kernel = Kernel::view(plan, kernel_storage).ok_or(too_short)?;
@@ -181,6 +235,14 @@ impl<'t> Decoder<'t> {
         if header != fingerprint_floats(plan) {
             return Err(DecoderError::TablesOfAnotherPlan);
         }
+        if let Some(span) = cosine_span(plan) {
+            let transform = CosineTransform::view(span as usize, rest)
+                .map_err(|_| DecoderError::TablesOfAnotherPlan)?;
+            return Ok(Decoder {
+                plan: *plan,
+                tables: Tables::Cosine(transform),
+            });
+        }
         let too_short = DecoderError::TablesTooShort {
             needed,
             got: needed,
@@ -200,11 +262,13 @@ impl<'t> Decoder<'t> {
         };
         Ok(Decoder {
             plan: *plan,
-            kernel,
-            fits,
-            window,
-            inverse_window_sum: (1.0 / sum) as f32,
-            bin_to_sample_noise: (sum / libm::sqrt(sum_sq)) as f32,
+            tables: Tables::Spectral(SpectralTables {
+                kernel,
+                fits,
+                window,
+                inverse_window_sum: (1.0 / sum) as f32,
+                bin_to_sample_noise: (sum / libm::sqrt(sum_sq)) as f32,
+            }),
         })
     }
 
@@ -213,34 +277,64 @@ impl<'t> Decoder<'t> {
         &self.plan
     }
 
-    /// The plan's kernel (modelled spectrum of one column).
-    pub fn kernel(&self) -> &Kernel<'t> {
-        &self.kernel
+    /// The plan's kernel (modelled spectrum of one column), for the DFT searches.
+    pub fn kernel(&self) -> Option<&Kernel<'t>> {
+        match &self.tables {
+            Tables::Spectral(t) => Some(&t.kernel),
+            Tables::Cosine(_) => None,
+        }
     }
 
-    /// Decodes every pixel of `row` into `out` (one entry per pixel).
+    /// Decodes every pixel of `row` into `out` (one entry per pixel), [`DEFAULT_LANES`] pixels
+    /// at a time.
     pub fn decode_row<const K: usize>(
         &self,
         row: &Row<'_>,
         scratch: &mut [f32],
         out: &mut [PixelCandidates<K>],
     ) -> Result<(), RowError> {
-        self.check(row, scratch)?;
+        self.decode_row_lanes::<DEFAULT_LANES, K>(row, scratch, out)
+    }
+
+    /// Decodes every pixel of `row` into `out`, `L` adjacent pixels at a time (the cosine
+    /// search; the DFT searches go pixel by pixel whatever `L`). Every `L` gives the same
+    /// bits: each lane runs the same scalar operations in the same order. `scratch` needs
+    /// [`Decoder::scratch_len_lanes`] floats.
+    ///
+    /// Inlined, so that a caller compiled for wider vectors (`#[target_feature]`) gets the
+    /// whole lane loop in them.
+    #[inline(always)]
+    pub fn decode_row_lanes<const L: usize, const K: usize>(
+        &self,
+        row: &Row<'_>,
+        scratch: &mut [f32],
+        out: &mut [PixelCandidates<K>],
+    ) -> Result<(), RowError> {
+        self.check(row, scratch, Self::scratch_len_lanes::<L>(&self.plan))?;
         if out.len() != row.width {
             return Err(RowError::OutputLength {
                 expected: row.width,
                 actual: out.len(),
             });
         }
-        // One peak list for the row: creating one per pixel clears 600 bytes each time.
-        let mut peaks = PeakList::default();
-        for (x, pixel) in out.iter_mut().enumerate() {
-            self.decode_checked(row, x, scratch, &mut peaks, pixel);
+        match &self.tables {
+            Tables::Cosine(transform) => {
+                for (x0, pixels) in (0..row.width).step_by(L).zip(out.chunks_mut(L)) {
+                    cosine::decode_pixels::<L, K>(self, transform, row, x0, scratch, pixels);
+                }
+            }
+            Tables::Spectral(tables) => {
+                // One peak list for the row: creating one per pixel clears 600 bytes each time.
+                let mut peaks = PeakList::default();
+                for (x, pixel) in out.iter_mut().enumerate() {
+                    spectral::decode_pixel(self, tables, row, x, scratch, &mut peaks, pixel);
+                }
+            }
         }
         Ok(())
     }
 
-    /// Decodes pixel `x` of `row` into `out`.
+    /// Decodes pixel `x` of `row` into `out` (the same bits as [`Decoder::decode_row`]).
     pub fn decode_pixel<const K: usize>(
         &self,
         row: &Row<'_>,
@@ -248,19 +342,25 @@ impl<'t> Decoder<'t> {
         scratch: &mut [f32],
         out: &mut PixelCandidates<K>,
     ) -> Result<(), RowError> {
-        self.check(row, scratch)?;
-        if x >= row.width {
-            return Err(RowError::Pixel {
+        self.check_pixel(row, x, scratch)?;
+        match &self.tables {
+            Tables::Cosine(transform) => cosine::decode_pixels::<1, K>(
+                self,
+                transform,
+                row,
                 x,
-                width: row.width,
-            });
+                scratch,
+                core::slice::from_mut(out),
+            ),
+            Tables::Spectral(tables) => {
+                spectral::decode_pixel(self, tables, row, x, scratch, &mut PeakList::default(), out)
+            }
         }
-        self.decode_checked(row, x, scratch, &mut PeakList::default(), out);
         Ok(())
     }
 
-    /// The spectrum of `group`'s fringes at pixel `x`, in `scratch` (for inspection: the
-    /// c-domain of paper Figs. 3, 4e and 8).
+    /// The zero-padded DFT of `group`'s fringes at pixel `x`, in `scratch` (for inspection:
+    /// the c-domain of paper Figs. 3, 4e and 8; every search).
     pub fn spectrum<'s>(
         &self,
         row: &Row<'_>,
@@ -268,18 +368,43 @@ impl<'t> Decoder<'t> {
         group: Group,
         scratch: &'s mut [f32],
     ) -> Result<Spectrum<'s>, RowError> {
-        self.check(row, scratch)?;
-        if x >= row.width {
-            return Err(RowError::Pixel {
-                x,
-                width: row.width,
-            });
-        }
-        self.load(row, x, group, scratch);
+        self.check_pixel(row, x, scratch)?;
+        let (window, inverse_window_sum) = match &self.tables {
+            Tables::Spectral(t) => (t.window, t.inverse_window_sum),
+            Tables::Cosine(_) => (&[][..], 1.0 / self.plan.band.count as f32),
+        };
+        spectral::load(
+            &self.plan,
+            window,
+            inverse_window_sum,
+            row,
+            x,
+            group,
+            scratch,
+        );
         Ok(Spectrum::new(scratch, self.plan.transform_size as usize))
     }
 
-    /// The peaks of `group`'s spectrum at pixel `x` (span-domain columns).
+    /// The light of every column `0..=span` of `group` at pixel `x` (SPEC §2b: the inverse
+    /// cosine transform), in `scratch`; `None` for a plan decoded by a DFT search.
+    pub fn profile<'s>(
+        &self,
+        row: &Row<'_>,
+        x: usize,
+        group: Group,
+        scratch: &'s mut [f32],
+    ) -> Result<Option<&'s [f32]>, RowError> {
+        self.check_pixel(row, x, scratch)?;
+        Ok(match &self.tables {
+            Tables::Cosine(transform) => {
+                Some(cosine::profile(self, transform, row, x, group, scratch))
+            }
+            Tables::Spectral(_) => None,
+        })
+    }
+
+    /// The peaks (DFT searches) or lights (cosine search) of `group` at pixel `x`, in the
+    /// span domain's columns.
     pub fn peaks(
         &self,
         row: &Row<'_>,
@@ -287,20 +412,40 @@ impl<'t> Decoder<'t> {
         group: Group,
         scratch: &mut [f32],
     ) -> Result<PeakList, RowError> {
-        self.check(row, scratch)?;
+        self.check_pixel(row, x, scratch)?;
+        let mut peaks = PeakList::default();
+        match &self.tables {
+            Tables::Cosine(transform) => {
+                cosine::lights(self, transform, row, x, group, scratch, &mut peaks)
+            }
+            Tables::Spectral(tables) => {
+                spectral::load(
+                    &self.plan,
+                    tables.window,
+                    tables.inverse_window_sum,
+                    row,
+                    x,
+                    group,
+                    scratch,
+                );
+                spectral::search(&self.plan, tables, scratch, &mut peaks);
+            }
+        }
+        Ok(peaks)
+    }
+
+    fn check_pixel(&self, row: &Row<'_>, x: usize, scratch: &[f32]) -> Result<(), RowError> {
+        self.check(row, scratch, Self::scratch_len_lanes::<1>(&self.plan))?;
         if x >= row.width {
             return Err(RowError::Pixel {
                 x,
                 width: row.width,
             });
         }
-        self.load(row, x, group, scratch);
-        let mut peaks = PeakList::default();
-        self.search(scratch, &mut peaks);
-        Ok(peaks)
+        Ok(())
     }
 
-    fn check(&self, row: &Row<'_>, scratch: &[f32]) -> Result<(), RowError> {
+    fn check(&self, row: &Row<'_>, scratch: &[f32], needed: usize) -> Result<(), RowError> {
         if row.width == 0 {
             return Err(RowError::EmptyRow);
         }
@@ -324,7 +469,6 @@ impl<'t> Decoder<'t> {
                 });
             }
         }
-        let needed = Self::scratch_len(&self.plan);
         if scratch.len() < needed {
             return Err(RowError::ScratchTooShort {
                 needed,
@@ -334,101 +478,85 @@ impl<'t> Decoder<'t> {
         Ok(())
     }
 
-    /// Loads the spectrum of `group` at pixel `x` into `scratch`; returns whether a fringe
-    /// sample saturated.
-    fn load(&self, row: &Row<'_>, x: usize, group: Group, scratch: &mut [f32]) -> bool {
-        let start = self.plan.fringe_start(group);
-        let w = row.width;
-        // Frame `start + m` at pixel `x`, every `w` samples (the row's length is checked).
-        let stats = spectrum::compute(
-            &self.plan,
-            row.frames.get(start * w + x..).unwrap_or(&[]),
-            w,
-            self.window,
-            self.inverse_window_sum,
-            saturation_code(row.bit_depth),
-            scratch,
-        );
-        stats.saturated
-    }
-
-    /// The peaks of the spectrum in `scratch`, written to `out` (a `PeakList` is 600 bytes:
-    /// returning it would copy it on the camera).
-    fn search(&self, scratch: &mut [f32], out: &mut PeakList) {
-        let n = self.plan.transform_size as usize;
-        let (spectrum, rest) = scratch.split_at_mut(n + 2);
-        let mut residual = Spectrum::new(spectrum, n);
-        let (plan, kernel, fits) = (&self.plan, &self.kernel, &self.fits);
-        match self.plan.decoding.search {
-            PeakSearch::Clean => clean::find_peaks(plan, kernel, fits, &mut residual, rest, out),
-            PeakSearch::LocalMaxima => {
-                local_maxima::find_peaks(plan, kernel, fits, &residual, rest, out)
-            }
+    /// The columns pixel `x`'s candidates may take: the projector's, within the row's limits.
+    fn column_range(&self, row: &Row<'_>, x: usize) -> ColumnRange {
+        let range = ColumnRange::projector(self.plan.projector_columns);
+        match row.column_limits {
+            Some(limits) => range.intersect(&limits[x]),
+            None => range,
         }
     }
 
-    fn decode_checked<const K: usize>(
+    /// Adds the candidates of `group`'s `peaks` at pixel `x` (span-domain columns; the
+    /// pixel's sample noise `noise_dn`) to `out`; returns whether the group's view is aliased
+    /// (EFSM) or unresolved (BFSM).
+    fn add_group<const K: usize>(
         &self,
         row: &Row<'_>,
         x: usize,
-        scratch: &mut [f32],
-        peaks: &mut PeakList,
+        group: Group,
+        peaks: &PeakList,
+        noise_dn: f32,
         out: &mut PixelCandidates<K>,
-    ) {
-        out.clear();
+    ) -> bool {
         let plan = &self.plan;
-        let saturation = saturation_code(row.bit_depth);
-        let mut range = ColumnRange::projector(plan.projector_columns);
-        if let Some(limits) = row.column_limits {
-            range = range.intersect(&limits[x]);
-        }
+        let range = self.column_range(row, x);
+        out.noise_dn = out.noise_dn.max(noise_dn);
         let sample = |frame: usize| row.frames[frame * row.width + x];
-        let mut aliased_in_every_group = true;
-        for group in plan.groups() {
-            if self.load(row, x, group, scratch) {
-                out.flags.insert(PixelFlags::SATURATED);
+        match plan.method {
+            Method::Bfsm => {
+                for (rank, peak) in peaks.peaks.iter().enumerate() {
+                    if range.contains(peak.column) {
+                        let candidate = Candidate {
+                            column: peak.column,
+                            amplitude: peak.amplitude,
+                            groups: GroupSet::only(group),
+                            group,
+                            peak: rank as u8,
+                            block: 0,
+                        };
+                        out.offer(candidate, plan.decoding.merge_tolerance, |old, _| *old);
+                    }
+                }
+                peaks.unresolved
             }
-            self.search(scratch, peaks);
-            let noise_dn = peaks.bin_noise * self.bin_to_sample_noise;
-            out.noise_dn = out.noise_dn.max(noise_dn);
-            match plan.method {
-                Method::Bfsm => {
-                    for (rank, peak) in peaks.peaks.iter().enumerate() {
-                        if range.contains(peak.column) {
-                            let candidate = Candidate {
-                                column: peak.column,
-                                amplitude: peak.amplitude,
-                                groups: GroupSet::only(group),
-                                group,
-                                peak: rank as u8,
-                                block: 0,
-                            };
-                            out.offer(candidate, plan.decoding.merge_tolerance, |old, _| *old);
-                        }
-                    }
+            Method::Efsm(coding) => {
+                let start = plan.mask_start(group);
+                // EFSM plans always carry a dark frame (validated).
+                let dark = plan.dark_index().map_or(0, sample);
+                let masks = MaskLevels::new(
+                    |i: u16| sample(start + i as usize),
+                    plan.mask_count(group),
+                    dark,
+                    noise_dn,
+                );
+                let saturation = saturation_code(row.bit_depth);
+                if masks.saturated(saturation) || dark >= saturation {
+                    out.flags.insert(PixelFlags::SATURATED);
                 }
-                Method::Efsm(coding) => {
-                    let start = plan.mask_start(group);
-                    // EFSM plans always carry a dark frame (validated).
-                    let dark = plan.dark_index().map_or(0, sample);
-                    let masks = MaskLevels::new(
-                        |i: u16| sample(start + i as usize),
-                        plan.mask_count(group),
-                        dark,
-                        noise_dn,
-                    );
-                    if masks.saturated(saturation) || dark >= saturation {
-                        out.flags.insert(PixelFlags::SATURATED);
-                    }
-                    aliased_in_every_group &=
-                        block::recover(plan, &coding, group, peaks, &masks, &range, out);
-                }
+                block::recover(plan, &coding, group, peaks, &masks, &range, out)
             }
         }
-        if matches!(plan.method, Method::Efsm(_)) && aliased_in_every_group {
-            out.flags.insert(PixelFlags::ALIASED);
+    }
+
+    /// Flags and orders a pixel whose groups have all been added; `troubled` tells whether
+    /// every group was aliased (EFSM) or the one group unresolved (BFSM).
+    fn finish<const K: usize>(&self, troubled: bool, out: &mut PixelCandidates<K>) {
+        if troubled {
+            out.flags.insert(match self.plan.method {
+                Method::Bfsm => PixelFlags::UNRESOLVED,
+                Method::Efsm(_) => PixelFlags::ALIASED,
+            });
         }
         out.sort();
+    }
+}
+
+/// `L/2`, the span of the inverse cosine transform, for a plan decoded by the cosine search.
+fn cosine_span(plan: &ScanPlan) -> Option<u16> {
+    match plan.decoding.search {
+        PeakSearch::Cosine => plan.full_band_span(),
+        PeakSearch::Clean | PeakSearch::LocalMaxima => None,
     }
 }
 

@@ -1,0 +1,406 @@
+//! The lights of a pixel from its column profile (SPEC §2b): the inverse cosine transform
+//! ([`crate::transform::cosine`]) gives the light `p_j` of every column `j = 0..=span` with
+//! white noise of a known RMS `σ` ([`crate::noise::profile_noise_dn`]), so a light is read off
+//! the profile directly, with no model of its spectrum:
+//!
+//! 1. **Runs.** A run is a stretch of adjacent columns above `noise_factor·σ`. Columns 0 and
+//!    `span` are not read: column 0 carries the noise of the dark and white frames (and any
+//!    error of the white level), and column `span` is never lit (BFSM: past the projector;
+//!    EFSM: the next block's column 0).
+//! 2. **Lights of a run.** Its significant maxima and minima alternate with swings of at least
+//!    `noise_factor·σ` (so noise makes no maximum); a minimum below [`SPLIT_DEPTH`] of the lower
+//!    of its two maxima separates two lights whose footprints touch; a shallower one leaves
+//!    two lights that cannot be told apart: one mixed light, and the list is marked
+//!    [`PeakList::unresolved`].
+//! 3. **Narrow lights on a broad one.** Under glossy interreflection most columns of a run are
+//!    lit by a lobe tens of columns wide, and the direct light is a narrow bump on it. In a run
+//!    of at least [`BACKGROUND_WINDOW`] columns the lobe is the profile's morphological opening
+//!    (the largest curve under it made of flat segments [`BACKGROUND_WINDOW`] columns wide, which
+//!    no narrower light fits under); the narrow lights are found as above in what stands above
+//!    it (the top-hat), and the opening itself is one broad light.
+//! 4. **Each light** is the centroid of its non-negative weights, with a one-column margin
+//!    beyond the ends of its run (a column at a split is shared half and half); its amplitude
+//!    is their sum, in sensor DN of fringe modulation (the unit of every search). Lights below
+//!    `min_amplitude_dn` or `relative_floor` of the strongest are dropped; at most `max_peaks`
+//!    are kept, strongest first.
+
+use heapless::Vec;
+
+use crate::peak::deconvolution::ColumnWeights;
+use crate::peak::{Peak, PeakList};
+use crate::plan::{ScanPlan, MAX_PEAKS};
+use crate::transform::Lanes;
+
+/// A minimum below this fraction of the lower of its two maxima separates two lights.
+pub const SPLIT_DEPTH: f32 = 0.5;
+
+/// Width of the flat segments of the opening that models a broad light under narrow ones,
+/// columns: wider than a direct light (a camera footprint of up to 6 projector columns and a
+/// projector blur of up to 1 column), narrower than a glossy lobe.
+pub const BACKGROUND_WINDOW: usize = 11;
+
+/// Most significant extrema recorded in one run (a run holding more is read up to there).
+const MAX_EXTREMA: usize = 4 * MAX_PEAKS + 1;
+
+/// Floats of scratch [`find_lights`] needs for a span: the broad light of a run.
+pub(crate) fn scratch_len(span: u16) -> usize {
+    span as usize + 1
+}
+
+/// Most columns [`LitColumns`] records for a group of lanes; past it, each lane scans its
+/// profile again.
+const MAX_LIT: usize = 512;
+
+/// The columns of `L` lanes' profiles above their lane's threshold, found in one pass over
+/// the profiles for every lane (a lane loop the compiler vectorises), so that each lane's
+/// search then reads only those columns: most of a profile is dark.
+pub(crate) struct LitColumns {
+    /// Lit columns, ascending, with the lanes (bit `l`) lit there.
+    columns: Vec<(u16, u32), MAX_LIT>,
+    /// Whether every lit column is recorded.
+    complete: bool,
+}
+
+impl LitColumns {
+    /// The columns `1..span` of `profile` above `thresholds` in any lane.
+    #[inline(always)]
+    pub(crate) fn find<const L: usize>(profile: &[Lanes<L>], thresholds: &[f32; L]) -> Self {
+        const { assert!(L <= 32, "a lane set is a u32") };
+        let mut lit = LitColumns {
+            columns: Vec::new(),
+            complete: true,
+        };
+        let span = profile.len().saturating_sub(1);
+        for (j, p) in profile.iter().enumerate().take(span).skip(1) {
+            let mut lanes = 0u32;
+            for l in 0..L {
+                lanes |= ((p[l] > thresholds[l]) as u32) << l;
+            }
+            if lanes != 0 && lit.columns.push((j as u16, lanes)).is_err() {
+                lit.complete = false;
+                break;
+            }
+        }
+        lit
+    }
+}
+
+/// The lights of lane `lane` of `profile[0..=span]`, whose columns have noise RMS
+/// `column_noise_dn`, written to `out`; `lit` holds the lit columns of the profiles
+/// ([`LitColumns::find`] with this lane's threshold, `noise_factor × column_noise_dn`).
+/// `background` holds [`scratch_len`] floats.
+pub(crate) fn find_lights<const L: usize>(
+    plan: &ScanPlan,
+    profile: &[Lanes<L>],
+    lane: usize,
+    column_noise_dn: f32,
+    lit: &LitColumns,
+    background: &mut [f32],
+    out: &mut PeakList,
+) {
+    out.peaks.clear();
+    out.bin_noise = 0.0;
+    out.unresolved = false;
+    let span = profile.len().saturating_sub(1);
+    let threshold = plan.decoding.noise_factor * column_noise_dn;
+    let value = |j: usize| profile[j][lane];
+    let mut found = Found::default();
+    let mut each_run = |run: Run| {
+        if run.len() < BACKGROUND_WINDOW {
+            lights_of_run(&value, &run, threshold, &mut found);
+        } else {
+            broad_run(&value, &run, threshold, background, &mut found);
+        }
+    };
+    if lit.complete {
+        let mine = lit
+            .columns
+            .iter()
+            .filter(|(_, lanes)| lanes & (1 << lane) != 0)
+            .map(|&(j, _)| j as usize);
+        runs(mine, span, &mut each_run);
+    } else {
+        runs(
+            (1..span).filter(|&j| value(j) > threshold),
+            span,
+            &mut each_run,
+        );
+    }
+    out.unresolved = found.unresolved;
+    keep_strongest(plan, &found.lights, out);
+}
+
+/// Groups ascending lit columns into runs of adjacent ones.
+fn runs(mut columns: impl Iterator<Item = usize>, span: usize, each: &mut impl FnMut(Run)) {
+    let Some(mut first) = columns.next() else {
+        return;
+    };
+    let mut last = first;
+    for j in columns {
+        if j != last + 1 {
+            each(Run { first, last, span });
+            first = j;
+        }
+        last = j;
+    }
+    each(Run { first, last, span });
+}
+
+/// Lights found so far in a profile.
+#[derive(Default)]
+struct Found {
+    /// More than `MAX_PEAKS` are kept while searching: the weakest go at the end.
+    lights: Vec<Peak, { 2 * MAX_PEAKS }>,
+    unresolved: bool,
+}
+
+impl Found {
+    /// Adds a light; when the list is full, it replaces the weakest if it is stronger.
+    fn push(&mut self, light: Peak) {
+        if let Err(light) = self.lights.push(light) {
+            let weakest = (0..self.lights.len()).min_by(|&a, &b| {
+                self.lights[a]
+                    .amplitude
+                    .total_cmp(&self.lights[b].amplitude)
+            });
+            if let Some(i) = weakest {
+                if light.amplitude > self.lights[i].amplitude {
+                    self.lights[i] = light;
+                }
+            }
+        }
+    }
+}
+
+/// Columns `first..=last` above the threshold, in a profile of `span + 1` columns.
+struct Run {
+    first: usize,
+    last: usize,
+    span: usize,
+}
+
+impl Run {
+    fn len(&self) -> usize {
+        self.last - self.first + 1
+    }
+
+    /// The run with its one-column margin, within the columns that are read (`1..span`).
+    fn with_margin(&self) -> (usize, usize) {
+        (self.first.max(2) - 1, (self.last + 1).min(self.span - 1))
+    }
+}
+
+/// Significant extrema of `v` over a run, alternating maximum, minimum, …, maximum (an odd
+/// count): each swing at least `swing` (hysteresis, so noise makes none), the run's ends
+/// counting as 0. A run with more than `MAX_EXTREMA` is read up to its last complete maximum.
+fn extrema(v: &impl Fn(usize) -> f32, run: &Run, swing: f32, out: &mut Vec<usize, MAX_EXTREMA>) {
+    out.clear();
+    // The most extreme column since the last recorded extremum: a maximum while rising.
+    let mut best = run.first;
+    let mut rising = true;
+    for j in run.first..=run.last {
+        let x = v(j);
+        let turned = if rising {
+            x < v(best) - swing
+        } else {
+            x > v(best) + swing
+        };
+        if turned {
+            if out.push(best).is_err() {
+                break;
+            }
+            rising = !rising;
+            best = j;
+        } else if (rising && x > v(best)) || (!rising && x < v(best)) {
+            best = j;
+        }
+    }
+    // The run's end falls to 0: a pending maximum stands, a pending minimum is the tail.
+    if rising && out.len().is_multiple_of(2) && out.push(best).is_err() {
+        out.pop();
+    }
+    if out.len().is_multiple_of(2) {
+        out.pop();
+    }
+}
+
+/// Splits one run of `v` into lights at its deep minima and adds them to `found`.
+fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, swing: f32, found: &mut Found) {
+    let mut ext: Vec<usize, MAX_EXTREMA> = Vec::new();
+    extrema(v, run, swing, &mut ext);
+    // Merge the two maxima around each shallow minimum, the larger standing for both, until
+    // every remaining minimum is deep.
+    loop {
+        let shallow = (1..ext.len()).step_by(2).find(|&i| {
+            let lower = v(ext[i - 1]).min(v(ext[i + 1]));
+            v(ext[i]) > (1.0 - SPLIT_DEPTH) * lower
+        });
+        let Some(i) = shallow else { break };
+        found.unresolved = true;
+        let keep = if v(ext[i - 1]) >= v(ext[i + 1]) {
+            ext[i - 1]
+        } else {
+            ext[i + 1]
+        };
+        ext[i - 1] = keep;
+        // Remove the minimum and the second maximum.
+        let _ = ext.remove(i);
+        let _ = ext.remove(i);
+    }
+    let (first, last) = run.with_margin();
+    for (k, &top) in ext.iter().enumerate().step_by(2) {
+        let left = if k == 0 { None } else { Some(ext[k - 1]) };
+        let right = ext.get(k + 1).copied();
+        let light = measure(
+            v,
+            left.unwrap_or(first),
+            right.unwrap_or(last),
+            left.is_some(),
+            right.is_some(),
+            top,
+        );
+        found.push(light);
+    }
+}
+
+/// The light over columns `first..=last` whose largest weight is at `top`; an end that is a
+/// split between two lights counts half its weight.
+fn measure(
+    v: &impl Fn(usize) -> f32,
+    first: usize,
+    last: usize,
+    first_shared: bool,
+    last_shared: bool,
+    top: usize,
+) -> Peak {
+    let (mut sum, mut moment) = (0.0f32, 0.0f32);
+    for j in first..=last {
+        let mut w = v(j).max(0.0);
+        if (j == first && first_shared) || (j == last && last_shared) {
+            w *= 0.5;
+        }
+        sum += w;
+        moment += w * j as f32;
+    }
+    Peak {
+        column: if sum > 0.0 { moment / sum } else { top as f32 },
+        amplitude: sum,
+        magnitude: v(top),
+        bin: top as u16,
+        weights: ColumnWeights::default(),
+    }
+}
+
+/// A run of at least [`BACKGROUND_WINDOW`] columns: narrow lights on the opening, and the
+/// opening as one broad light.
+fn broad_run(
+    v: &impl Fn(usize) -> f32,
+    run: &Run,
+    swing: f32,
+    background: &mut [f32],
+    found: &mut Found,
+) {
+    let half = BACKGROUND_WINDOW / 2;
+    let (first, last) = (run.first, run.last);
+    // Outside the run the profile counts as 0 (unlit): the erosion of a column within `half`
+    // of an end is 0, and the opening is the dilation of the erosion.
+    let at = |j: isize| -> f32 {
+        if j < first as isize || j > last as isize {
+            0.0
+        } else {
+            v(j as usize)
+        }
+    };
+    let eroded = |j: isize| -> f32 {
+        let mut m = at(j - half as isize);
+        for k in (j - half as isize + 1)..=(j + half as isize) {
+            m = m.min(at(k));
+        }
+        m
+    };
+    // Erosion into `background[first..=last]`, then the dilation in place with a window of
+    // the erosion values kept in a small ring.
+    let bg = &mut background[..=last];
+    for (j, b) in bg.iter_mut().enumerate().skip(first) {
+        *b = eroded(j as isize).max(0.0);
+    }
+    let mut ring = [0.0f32; BACKGROUND_WINDOW];
+    let erosion_at = |bg: &[f32], j: isize| -> f32 {
+        if j < first as isize || j > last as isize {
+            0.0
+        } else {
+            bg[j as usize]
+        }
+    };
+    for (k, r) in ring.iter_mut().enumerate() {
+        *r = erosion_at(bg, first as isize - half as isize + k as isize);
+    }
+    for j in first..=last {
+        // `ring` holds the erosion over `j − half ..= j + half`, oldest first at `slot`.
+        let opened = ring.iter().copied().fold(0.0f32, f32::max);
+        let slot = (j - first) % BACKGROUND_WINDOW;
+        let next = erosion_at(bg, j as isize + half as isize + 1);
+        bg[j] = opened;
+        ring[slot] = next;
+    }
+    // The narrow lights: runs of the top-hat above the threshold (beyond the run, where a
+    // narrow light's margin may reach, the opening is 0).
+    let broad = |j: usize| if j < first || j > last { 0.0 } else { bg[j] };
+    let top_hat = |j: usize| v(j) - broad(j);
+    let mut j = first;
+    while j <= last {
+        if top_hat(j) <= swing {
+            j += 1;
+            continue;
+        }
+        let start = j;
+        while j < last && top_hat(j + 1) > swing {
+            j += 1;
+        }
+        let narrow = Run {
+            first: start,
+            last: j,
+            span: run.span,
+        };
+        lights_of_run(&top_hat, &narrow, swing, found);
+        j += 1;
+    }
+    // The broad light: the opening over the run with its margin.
+    let (m0, m1) = run.with_margin();
+    let top = (first..=last)
+        .max_by(|&a, &b| bg[a].total_cmp(&bg[b]).then(b.cmp(&a)))
+        .unwrap_or(first);
+    found.push(measure(&broad, m0, m1, false, false, top));
+}
+
+/// The lights that pass the floors, strongest first, at most `max_peaks`.
+fn keep_strongest(plan: &ScanPlan, lights: &[Peak], out: &mut PeakList) {
+    let settings = plan.decoding;
+    let strongest = lights.iter().map(|l| l.amplitude).fold(0.0f32, f32::max);
+    let floor = settings
+        .min_amplitude_dn
+        .max(settings.relative_floor * strongest);
+    let mut kept: Vec<Peak, { 2 * MAX_PEAKS }> = Vec::new();
+    for light in lights.iter().filter(|l| l.amplitude > floor) {
+        let _ = kept.push(*light);
+    }
+    // Insertion sort, amplitude descending then column ascending: the order must not depend
+    // on a sort algorithm.
+    for i in 1..kept.len() {
+        let mut k = i;
+        while k > 0 && stronger(&kept[k], &kept[k - 1]) {
+            kept.swap(k, k - 1);
+            k -= 1;
+        }
+    }
+    for light in kept.iter().take(settings.max_peaks as usize) {
+        let _ = out.peaks.push(*light);
+    }
+}
+
+fn stronger(a: &Peak, b: &Peak) -> bool {
+    b.amplitude
+        .total_cmp(&a.amplitude)
+        .then(a.column.total_cmp(&b.column))
+        .is_lt()
+}
