@@ -62,6 +62,21 @@ impl Sensor {
         }
     }
 
+    /// What this sensor's datasheet says, in the form a plan states it for the decoder's
+    /// threshold (`decoding.sensor`): the charge at the top code and the read noise. Without
+    /// shot noise, a full-scale charge so large that its shot noise vanishes.
+    pub fn datasheet(&self) -> fsm_core::SensorNoise {
+        let full_scale = if self.shot_noise {
+            self.max_code() as f64 / self.gain_dn_per_electron
+        } else {
+            1e12
+        };
+        fsm_core::SensorNoise {
+            full_scale_electrons: full_scale as f32,
+            read_noise_electrons: self.read_noise_electrons as f32,
+        }
+    }
+
     /// The highest code, `2^bits − 1`.
     pub fn max_code(&self) -> u16 {
         ((1u32 << self.bit_depth) - 1) as u16

@@ -707,7 +707,9 @@ impl ScanPlan {
     pub fn full_band_span(&self) -> Option<u16> {
         let band = self.band;
         let half = band.period_columns / 2;
-        (band.first_harmonic == 1 && band.period_columns.is_multiple_of(2) && band.count as u32 == half)
+        (band.first_harmonic == 1
+            && band.period_columns.is_multiple_of(2)
+            && band.count as u32 == half)
             .then_some(band.count)
     }
 

@@ -8,31 +8,49 @@
 //!    error of the white level), and column `span` is never lit (BFSM: past the projector;
 //!    EFSM: the next block's column 0).
 //! 2. **Lights of a run.** Its significant maxima and minima alternate with swings of at least
-//!    `noise_factor·σ` (so noise makes no maximum); a minimum below [`SPLIT_DEPTH`] of the lower
-//!    of its two maxima separates two lights whose footprints touch; a shallower one leaves
-//!    two lights that cannot be told apart: one mixed light, and the list is marked
-//!    [`PeakList::unresolved`].
+//!    `noise_factor·σ` (so noise makes no maximum). A minimum below [`SPLIT_DEPTH`] of the
+//!    lower of its two maxima separates two lights whose footprints touch; a shallower one
+//!    leaves two lights that cannot be told apart: one mixed light, and the list is marked
+//!    [`PeakList::unresolved`]. The columns between two touching lights are shared: first at
+//!    the minimum, then in proportion to what each light sends there, read off its own far
+//!    side as the mirror image about its centroid (a light is nearly symmetric, and its far
+//!    side holds none of the other's light); two lights 3 columns apart are then both within
+//!    0.1 column (`tests/cosine.rs`).
 //! 3. **Narrow lights on a broad one.** Under glossy interreflection most columns of a run are
-//!    lit by a lobe tens of columns wide, and the direct light is a narrow bump on it. In a run
-//!    of at least [`BACKGROUND_WINDOW`] columns the lobe is the profile's morphological opening
-//!    (the largest curve under it made of flat segments [`BACKGROUND_WINDOW`] columns wide, which
-//!    no narrower light fits under); the narrow lights are found as above in what stands above
-//!    it (the top-hat), and the opening itself is one broad light.
-//! 4. **Each light** is the centroid of its non-negative weights, with a one-column margin
-//!    beyond the ends of its run (a column at a split is shared half and half); its amplitude
-//!    is their sum, in sensor DN of fringe modulation (the unit of every search). Lights below
-//!    `min_amplitude_dn` or `relative_floor` of the strongest are dropped; at most `max_peaks`
-//!    are kept, strongest first.
+//!    lit by a lobe tens of columns wide, and the direct light is a narrow bump on it. A run of
+//!    at least [`BACKGROUND_WINDOW`] columns is opened morphologically (the largest curve under
+//!    the profile made of flat segments [`BACKGROUND_WINDOW`] wide, which no narrower light
+//!    fits under); each maximum of what stands above the opening is a narrow light, measured
+//!    above the straight line between its feet (where the profile bends most sharply upwards
+//!    on either side of it: the narrow light's flanks meet the lobe there), and the opening
+//!    itself is one broad light.
+//! 4. **Each light** is the centroid of its columns, with a one-column margin beyond the ends
+//!    of its run (a column at a split is shared half and half), each column weighing its light
+//!    less [`WEIGHT_FLOOR`] noise RMS (never negative): a column of noise alone then weighs
+//!    nothing 99.9% of the time, where its lever arm on the centroid would be largest, and every
+//!    lit column loses the same small amount, which moves no centroid. Measured on synthetic
+//!    lights (box footprints of 1–3 columns, blur σ 0.4–1, intensity ramps of ±50%, the noise of
+//!    EFSM cB 64): 21% less scatter than the plain centroid, no bias. Its amplitude is the sum of
+//!    its non-negative light, in sensor DN of fringe modulation (the unit of every search).
+//!    Lights below `min_amplitude_dn` or `relative_floor` of the strongest are dropped; at most
+//!    `max_peaks` are kept, strongest first.
 
 use heapless::Vec;
 
+use crate::math::{exp, ln};
 use crate::peak::deconvolution::ColumnWeights;
 use crate::peak::{Peak, PeakList};
 use crate::plan::{ScanPlan, MAX_PEAKS};
 use crate::transform::Lanes;
 
 /// A minimum below this fraction of the lower of its two maxima separates two lights.
-pub const SPLIT_DEPTH: f32 = 0.5;
+pub const SPLIT_DEPTH: f32 = 0.25;
+
+/// A column's weight in a light's centroid is its light less this many noise RMS.
+pub const WEIGHT_FLOOR: f32 = 3.0;
+
+/// Passes that share the columns between two touching lights by their mirror images.
+const UNMIX_PASSES: usize = 2;
 
 /// Width of the flat segments of the opening that models a broad light under narrow ones,
 /// columns: wider than a direct light (a camera footprint of up to 6 projector columns and a
@@ -102,14 +120,19 @@ pub(crate) fn find_lights<const L: usize>(
     out.bin_noise = 0.0;
     out.unresolved = false;
     let span = profile.len().saturating_sub(1);
-    let threshold = plan.decoding.noise_factor * column_noise_dn;
+    let levels = Levels {
+        noise: column_noise_dn,
+        threshold: plan.decoding.noise_factor * column_noise_dn,
+        floor: WEIGHT_FLOOR * column_noise_dn,
+    };
+    let threshold = levels.threshold;
     let value = |j: usize| profile[j][lane];
     let mut found = Found::default();
     let mut each_run = |run: Run| {
         if run.len() < BACKGROUND_WINDOW {
-            lights_of_run(&value, &run, threshold, &mut found);
+            lights_of_run(&value, &run, &levels, &mut found);
         } else {
-            broad_run(&value, &run, threshold, background, &mut found);
+            broad_run(&value, &run, &levels, background, &mut found);
         }
     };
     if lit.complete {
@@ -144,6 +167,16 @@ fn runs(mut columns: impl Iterator<Item = usize>, span: usize, each: &mut impl F
         last = j;
     }
     each(Run { first, last, span });
+}
+
+/// The levels a profile is read at, sensor DN.
+struct Levels {
+    /// The noise RMS of a column.
+    noise: f32,
+    /// A column above it is lit; two extrema of a run differ by at least it.
+    threshold: f32,
+    /// What every column's weight in a centroid loses.
+    floor: f32,
 }
 
 /// Lights found so far in a profile.
@@ -225,9 +258,9 @@ fn extrema(v: &impl Fn(usize) -> f32, run: &Run, swing: f32, out: &mut Vec<usize
 }
 
 /// Splits one run of `v` into lights at its deep minima and adds them to `found`.
-fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, swing: f32, found: &mut Found) {
+fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, levels: &Levels, found: &mut Found) {
     let mut ext: Vec<usize, MAX_EXTREMA> = Vec::new();
-    extrema(v, run, swing, &mut ext);
+    extrema(v, run, levels.threshold, &mut ext);
     // Merge the two maxima around each shallow minimum, the larger standing for both, until
     // every remaining minimum is deep.
     loop {
@@ -248,43 +281,109 @@ fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, swing: f32, found: &mut F
         let _ = ext.remove(i);
     }
     let (first, last) = run.with_margin();
-    for (k, &top) in ext.iter().enumerate().step_by(2) {
-        let left = if k == 0 { None } else { Some(ext[k - 1]) };
-        let right = ext.get(k + 1).copied();
-        let light = measure(
-            v,
-            left.unwrap_or(first),
-            right.unwrap_or(last),
-            left.is_some(),
-            right.is_some(),
-            top,
+    let tops: Vec<usize, { MAX_EXTREMA / 2 + 1 }> = ext.iter().step_by(2).copied().collect();
+    if tops.len() == 1 {
+        found.push(measure(v, levels.floor, (first, last), |_| 1.0, tops[0]));
+        return;
+    }
+    // Lights whose footprints touch: each column between two maxima is shared by those two
+    // lights. First split at the minimum between them (the minimum's column half and half),
+    // then, twice, in proportion to what each light sends there, read off its own far side as
+    // the mirror image about its centroid (a light is nearly symmetric; the far side carries
+    // none of the other's light): this undoes most of the bias a hard split leaves when two
+    // lights' tails overlap.
+    let minima: Vec<usize, { MAX_EXTREMA / 2 + 1 }> =
+        ext.iter().skip(1).step_by(2).copied().collect();
+    let n = tops.len();
+    let territory = |k: usize| {
+        let lo = if k == 0 { first } else { tops[k - 1] + 1 };
+        let hi = if k + 1 == n { last } else { tops[k + 1] - 1 };
+        (lo, hi)
+    };
+    let hard = |k: usize, j: usize| -> f32 {
+        let below = k > 0 && j < tops[k] && j <= minima[k - 1];
+        let above = k + 1 < n && j > tops[k] && j >= minima[k];
+        match (below, above) {
+            (true, _) if j == minima[k - 1] => 0.5,
+            (_, true) if j == minima[k] => 0.5,
+            (true, _) | (_, true) => 0.0,
+            _ => 1.0,
+        }
+    };
+    let mut centres: Vec<f32, { MAX_EXTREMA / 2 + 1 }> = (0..n)
+        .map(|k| measure(v, levels.floor, territory(k), |j| hard(k, j), tops[k]).column)
+        .collect();
+    let mirrored = |centre: f32, j: usize| -> f32 {
+        let x = 2.0 * centre - j as f32;
+        if x < first as f32 || x > last as f32 {
+            return 0.0;
+        }
+        let i = crate::math::floor(x) as usize;
+        let t = x - i as f32;
+        // A light's flank falls about exponentially: interpolate geometrically, a column
+        // lighter than the noise counting as the noise.
+        let (a, b) = (
+            v(i).max(levels.noise),
+            v((i + 1).min(last)).max(levels.noise),
         );
-        found.push(light);
+        exp((1.0 - t) * ln(a) + t * ln(b))
+    };
+    let shared = |centres: &[f32], k: usize, j: usize| -> f32 {
+        // The neighbour whose maximum lies on `j`'s side of this light's.
+        let other = if j < tops[k] && k > 0 {
+            k - 1
+        } else if j > tops[k] && k + 1 < n {
+            k + 1
+        } else {
+            return 1.0;
+        };
+        // Only light above the floor is attributed: a mirror image on a steep far flank is
+        // mostly interpolation, and it would pull the light towards its neighbour.
+        let above = |c: f32| (mirrored(c, j) - levels.floor).max(0.0);
+        let (mine, theirs) = (above(centres[k]), above(centres[other]));
+        if mine + theirs > 0.0 {
+            mine / (mine + theirs)
+        } else {
+            // Neither light's far side says: the split at the minimum does.
+            hard(k, j)
+        }
+    };
+    for _ in 0..UNMIX_PASSES {
+        let next: Vec<f32, { MAX_EXTREMA / 2 + 1 }> = (0..n)
+            .map(|k| {
+                let share = |j: usize| shared(&centres, k, j);
+                measure(v, levels.floor, territory(k), share, tops[k]).column
+            })
+            .collect();
+        centres = next;
+    }
+    for k in 0..n {
+        let share = |j: usize| shared(&centres, k, j);
+        found.push(measure(v, levels.floor, territory(k), share, tops[k]));
     }
 }
 
-/// The light over columns `first..=last` whose largest weight is at `top`; an end that is a
-/// split between two lights counts half its weight.
+/// The light over columns `first..=last` whose largest weight is at `top`, each column
+/// weighing its light less `floor`, times the share of the column this light has.
 fn measure(
     v: &impl Fn(usize) -> f32,
-    first: usize,
-    last: usize,
-    first_shared: bool,
-    last_shared: bool,
+    floor: f32,
+    (first, last): (usize, usize),
+    share: impl Fn(usize) -> f32,
     top: usize,
 ) -> Peak {
-    let (mut sum, mut moment) = (0.0f32, 0.0f32);
+    let (mut light, mut sum, mut moment) = (0.0f32, 0.0f32, 0.0f32);
     for j in first..=last {
-        let mut w = v(j).max(0.0);
-        if (j == first && first_shared) || (j == last && last_shared) {
-            w *= 0.5;
-        }
+        let share = share(j);
+        let x = v(j);
+        let w = share * (x - floor).max(0.0);
+        light += share * x.max(0.0);
         sum += w;
         moment += w * j as f32;
     }
     Peak {
         column: if sum > 0.0 { moment / sum } else { top as f32 },
-        amplitude: sum,
+        amplitude: light,
         magnitude: v(top),
         bin: top as u16,
         weights: ColumnWeights::default(),
@@ -296,17 +395,31 @@ fn measure(
 fn broad_run(
     v: &impl Fn(usize) -> f32,
     run: &Run,
-    swing: f32,
+    levels: &Levels,
     background: &mut [f32],
     found: &mut Found,
 ) {
+    let swing = levels.threshold;
     let half = BACKGROUND_WINDOW / 2;
     let (first, last) = (run.first, run.last);
-    // Outside the run the profile counts as 0 (unlit): the erosion of a column within `half`
-    // of an end is 0, and the opening is the dilation of the erosion.
+    // Beyond the run's ends the profile counts as 0 (unlit), so the erosion of a column within
+    // `half` of an end is 0; but where the run meets the end of the columns read (EFSM: its
+    // light goes on in the next block) the profile counts as its last column. The opening is
+    // the dilation of the erosion.
+    let (open_below, open_above) = (first == 1, last + 2 == run.span);
     let at = |j: isize| -> f32 {
-        if j < first as isize || j > last as isize {
-            0.0
+        if j < first as isize {
+            if open_below {
+                v(first)
+            } else {
+                0.0
+            }
+        } else if j > last as isize {
+            if open_above {
+                v(last)
+            } else {
+                0.0
+            }
         } else {
             v(j as usize)
         }
@@ -326,8 +439,18 @@ fn broad_run(
     }
     let mut ring = [0.0f32; BACKGROUND_WINDOW];
     let erosion_at = |bg: &[f32], j: isize| -> f32 {
-        if j < first as isize || j > last as isize {
-            0.0
+        if j < first as isize {
+            if open_below {
+                bg[first]
+            } else {
+                0.0
+            }
+        } else if j > last as isize {
+            if open_above {
+                bg[last]
+            } else {
+                0.0
+            }
         } else {
             bg[j as usize]
         }
@@ -362,7 +485,13 @@ fn broad_run(
             last: j,
             span: run.span,
         };
-        lights_of_run(&top_hat, &narrow, swing, found);
+        let mut ext: Vec<usize, MAX_EXTREMA> = Vec::new();
+        extrema(&top_hat, &narrow, swing, &mut ext);
+        for &top in ext.iter().step_by(2) {
+            if let Some(light) = narrow_light(v, top, run.with_margin(), levels) {
+                found.push(light);
+            }
+        }
         j += 1;
     }
     // The broad light: the opening over the run with its margin.
@@ -370,7 +499,44 @@ fn broad_run(
     let top = (first..=last)
         .max_by(|&a, &b| bg[a].total_cmp(&bg[b]).then(b.cmp(&a)))
         .unwrap_or(first);
-    found.push(measure(&broad, m0, m1, false, false, top));
+    found.push(measure(&broad, levels.floor, (m0, m1), |_| 1.0, top));
+}
+
+/// The narrow light whose maximum is at `top`, on a broad light, within columns `lo..=hi`:
+/// the light above the straight line between its feet, the columns on either side within
+/// half a [`BACKGROUND_WINDOW`] where the profile bends most sharply upwards (the largest
+/// second difference): there the narrow light's flank meets the broad light. The opening
+/// only found it: under a narrow light on a broad light's corner it lies lower than the broad
+/// light, and what stands above it is not the narrow light alone.
+fn narrow_light(
+    v: &impl Fn(usize) -> f32,
+    top: usize,
+    (lo, hi): (usize, usize),
+    levels: &Levels,
+) -> Option<Peak> {
+    let reach = BACKGROUND_WINDOW / 2;
+    let bend = |j: usize| v(j - 1) - 2.0 * v(j) + v(j + 1);
+    let foot = |candidates: &mut dyn Iterator<Item = usize>, fallback: usize| {
+        candidates
+            .filter(|&j| bend(j) > 0.0)
+            .max_by(|&a, &b| bend(a).total_cmp(&bend(b)))
+            .unwrap_or(fallback)
+    };
+    let left_end = top.saturating_sub(reach).max(lo);
+    let right_end = (top + reach).min(hi);
+    let a = foot(&mut ((left_end.max(lo + 1))..top).rev(), left_end);
+    let b = foot(
+        &mut ((top + 1)..right_end.min(hi.saturating_sub(1)) + 1),
+        right_end,
+    );
+    if b <= a + 1 {
+        return None;
+    }
+    let (va, vb) = (v(a), v(b));
+    let slope = (vb - va) / (b - a) as f32;
+    let above = |j: usize| v(j) - (va + slope * (j - a) as f32);
+    let light = measure(&above, levels.floor, (a + 1, b - 1), |_| 1.0, top);
+    (light.amplitude > 0.0).then_some(light)
 }
 
 /// The lights that pass the floors, strongest first, at most `max_peaks`.

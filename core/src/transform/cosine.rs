@@ -402,7 +402,11 @@ impl<'t> CosineTransform<'t> {
             return;
         }
         let k_last = (m - 1) / 2;
-        let k_loop = if m.is_multiple_of(2) { k_last } else { k_last - 1 };
+        let k_loop = if m.is_multiple_of(2) {
+            k_last
+        } else {
+            k_last - 1
+        };
         let (low, rest) = data[2..n - 1].split_at_mut(2 * k_loop);
         let mid = if m.is_multiple_of(2) { 1 } else { 3 };
         let (mid_s, high) = rest.split_at_mut(mid);

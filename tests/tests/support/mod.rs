@@ -30,7 +30,8 @@ pub fn transport(scene: &str, system: &System, rows: std::ops::Range<u32>) -> Ar
     )
 }
 
-/// Renders every row of `transport` with `plan` and decodes it.
+/// Renders every row of `transport` with `plan` and decodes it, the plan stating `sensor`'s
+/// noise ([`Sensor::datasheet`]).
 pub fn simulate_and_decode(
     transport: Arc<LightTransport>,
     plan: &ScanPlan,
@@ -39,6 +40,10 @@ pub fn simulate_and_decode(
     seed: u64,
 ) -> Decoded {
     let capture = Capture::new(transport, plan, system, sensor, seed).expect("capture");
+    // The plan states the simulated camera's sensor, as a user states theirs.
+    let mut plan = *plan;
+    plan.decoding.sensor = sensor.datasheet();
+    let plan = &plan;
     let mut tables = vec![0.0; Decoder::tables_len(plan)];
     let decoder = Decoder::new(plan, &mut tables).expect("valid plan");
     let mut scratch = vec![0.0; Decoder::scratch_len(plan)];
