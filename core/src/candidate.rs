@@ -77,6 +77,12 @@ impl PixelFlags {
     /// their mixture, off by up to half their distance, so a scan should not trust it.
     pub const UNRESOLVED: PixelFlags = PixelFlags(8);
 
+    /// Whether the pixel's candidates may be mixtures of two lights ([`PixelFlags::ALIASED`] or
+    /// [`PixelFlags::UNRESOLVED`]): a scan gives such a pixel no point unless asked to.
+    pub fn is_mixed(self) -> bool {
+        self.0 & (PixelFlags::ALIASED.0 | PixelFlags::UNRESOLVED.0) != 0
+    }
+
     /// Whether every flag of `other` is set.
     pub fn contains(self, other: PixelFlags) -> bool {
         self.0 & other.0 == other.0

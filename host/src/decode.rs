@@ -68,6 +68,9 @@ pub struct DecodedRow {
     /// EFSM pixels whose lights are unresolved modulo the block width
     /// ([`PixelFlags::ALIASED`]).
     pub aliased_pixels: u32,
+    /// Pixels with two touching lights the decoder could not split
+    /// ([`PixelFlags::UNRESOLVED`]).
+    pub unresolved_pixels: u32,
 }
 
 /// What a decode did.
@@ -88,6 +91,9 @@ pub struct DecodeSummary {
     /// EFSM pixels whose lights are unresolved modulo the block width
     /// ([`PixelFlags::ALIASED`]).
     pub aliased_pixels: u64,
+    /// Pixels with two touching lights the decoder could not split
+    /// ([`PixelFlags::UNRESOLVED`]).
+    pub unresolved_pixels: u64,
     /// Rows per batch read at once.
     pub rows_per_batch: u32,
     /// Wall time, seconds.
@@ -202,6 +208,7 @@ pub fn decode_batches(
                 summary.saturated_pixels += d.saturated_pixels as u64;
                 summary.truncated_pixels += d.truncated_pixels as u64;
                 summary.aliased_pixels += d.aliased_pixels as u64;
+                summary.unresolved_pixels += d.unresolved_pixels as u64;
                 sink(d)?;
                 next_row += 1;
             }
@@ -301,6 +308,7 @@ fn decode_row(
         saturated_pixels: 0,
         truncated_pixels: 0,
         aliased_pixels: 0,
+        unresolved_pixels: 0,
     };
     for p in pixels.iter() {
         decoded
@@ -311,6 +319,7 @@ fn decode_row(
         decoded.saturated_pixels += p.flags.contains(PixelFlags::SATURATED) as u32;
         decoded.truncated_pixels += p.flags.contains(PixelFlags::TRUNCATED) as u32;
         decoded.aliased_pixels += p.flags.contains(PixelFlags::ALIASED) as u32;
+        decoded.unresolved_pixels += p.flags.contains(PixelFlags::UNRESOLVED) as u32;
     }
     Ok(decoded)
 }

@@ -22,8 +22,11 @@
 //!    the profile made of flat segments [`BACKGROUND_WINDOW`] wide, which no narrower light
 //!    fits under); each maximum of what stands above the opening is a narrow light, measured
 //!    above the straight line between its feet (where the profile bends most sharply upwards
-//!    on either side of it: the narrow light's flanks meet the lobe there), and the opening
-//!    itself is one broad light.
+//!    on either side of it: the narrow light's flanks meet the lobe there).
+//!    The lobe is then no candidate: its column is ill defined, and its amplitude would
+//!    outweigh the direct light's in the selection. A run with no narrow light on it is one
+//!    wide light (a pixel seeing a surface at a grazing angle covers many projector columns),
+//!    read as in 2.
 //! 4. **Each light** is the centroid of its columns, with a one-column margin beyond the ends
 //!    of its run (a column at a split is shared half and half), each column weighing its light
 //!    less [`WEIGHT_FLOOR`] noise RMS (never negative): a column of noise alone then weighs
@@ -390,8 +393,8 @@ fn measure(
     }
 }
 
-/// A run of at least [`BACKGROUND_WINDOW`] columns: narrow lights on the opening, and the
-/// opening as one broad light.
+/// A run of at least [`BACKGROUND_WINDOW`] columns: the narrow lights on its opening, or, if
+/// there are none, the run as one wide light.
 fn broad_run(
     v: &impl Fn(usize) -> f32,
     run: &Run,
@@ -466,10 +469,11 @@ fn broad_run(
         bg[j] = opened;
         ring[slot] = next;
     }
-    // The narrow lights: runs of the top-hat above the threshold (beyond the run, where a
+    // The narrow lights: maxima of the top-hat's runs above the threshold (beyond the run, where a
     // narrow light's margin may reach, the opening is 0).
     let broad = |j: usize| if j < first || j > last { 0.0 } else { bg[j] };
     let top_hat = |j: usize| v(j) - broad(j);
+    let mut narrow_lights = false;
     let mut j = first;
     while j <= last {
         if top_hat(j) <= swing {
@@ -490,22 +494,23 @@ fn broad_run(
         for &top in ext.iter().step_by(2) {
             if let Some(light) = narrow_light(v, top, run.with_margin(), levels) {
                 found.push(light);
+                narrow_lights = true;
             }
         }
         j += 1;
     }
-    // The broad light: the opening over the run with its margin.
-    let (m0, m1) = run.with_margin();
-    let top = (first..=last)
-        .max_by(|&a, &b| bg[a].total_cmp(&bg[b]).then(b.cmp(&a)))
-        .unwrap_or(first);
-    found.push(measure(&broad, levels.floor, (m0, m1), |_| 1.0, top));
+    if !narrow_lights {
+        // Nothing stands above the opening: one wide light (a camera pixel seeing a surface
+        // at a grazing angle covers many columns).
+        lights_of_run(v, run, levels, found);
+    }
 }
 
 /// The narrow light whose maximum is at `top`, on a broad light, within columns `lo..=hi`:
 /// the light above the straight line between its feet, the columns on either side within
 /// half a [`BACKGROUND_WINDOW`] where the profile bends most sharply upwards (the largest
-/// second difference): there the narrow light's flank meets the broad light. The opening
+/// second difference; where it does not bend upwards, half a window out): there the narrow
+/// light's flank meets the broad light. The opening
 /// only found it: under a narrow light on a broad light's corner it lies lower than the broad
 /// light, and what stands above it is not the narrow light alone.
 fn narrow_light(
@@ -516,25 +521,23 @@ fn narrow_light(
 ) -> Option<Peak> {
     let reach = BACKGROUND_WINDOW / 2;
     let bend = |j: usize| v(j - 1) - 2.0 * v(j) + v(j + 1);
-    let foot = |candidates: &mut dyn Iterator<Item = usize>, fallback: usize| {
+    // Without an upward bend within reach, the foot is where the reach ends.
+    let foot = |candidates: &mut dyn Iterator<Item = usize>, end: usize| {
         candidates
             .filter(|&j| bend(j) > 0.0)
             .max_by(|&a, &b| bend(a).total_cmp(&bend(b)))
-            .unwrap_or(fallback)
+            .unwrap_or(end)
     };
-    let left_end = top.saturating_sub(reach).max(lo);
-    let right_end = (top + reach).min(hi);
-    let a = foot(&mut ((left_end.max(lo + 1))..top).rev(), left_end);
-    let b = foot(
-        &mut ((top + 1)..right_end.min(hi.saturating_sub(1)) + 1),
-        right_end,
-    );
-    if b <= a + 1 {
+    let left_end = top.saturating_sub(reach).max(lo + 1);
+    let right_end = (top + reach).min(hi.saturating_sub(1));
+    let a = foot(&mut (left_end..top).rev(), left_end);
+    let b = foot(&mut ((top + 1)..right_end + 1), right_end);
+    if !(a < top && top < b) {
         return None;
     }
     let (va, vb) = (v(a), v(b));
     let slope = (vb - va) / (b - a) as f32;
-    let above = |j: usize| v(j) - (va + slope * (j - a) as f32);
+    let above = |j: usize| v(j) - (va + slope * (j as f32 - a as f32));
     let light = measure(&above, levels.floor, (a + 1, b - 1), |_| 1.0, top);
     (light.amplitude > 0.0).then_some(light)
 }

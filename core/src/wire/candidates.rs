@@ -28,7 +28,8 @@
 //! | 8 + P | u32 | CRC-32 of bytes 0 to 8 + P |
 //!
 //! Pixel flags ([`PixelFlags`]): bit 0 saturated, bit 1 truncated (more candidates than the
-//! capacity), bit 2 aliased (EFSM lights unresolved modulo the block width); other bits 0.
+//! capacity), bit 2 aliased (EFSM lights unresolved modulo the block width), bit 3 unresolved
+//! (two touching lights the cosine search could not split); other bits 0.
 //!
 //! Candidate (16 bytes): f32 column, f32 amplitude (DN), u16 block, u8 groups (bit 0 group 1,
 //! bit 1 group 2), u8 source group (1 or 2), u8 peak rank, 3 reserved bytes (0).

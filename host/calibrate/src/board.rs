@@ -163,7 +163,10 @@ impl Checkerboard {
             .iter()
             .position(|p| p.y != 0.0)
             .unwrap_or(corners_mm.len());
-        if columns < 2 || !corners_mm.len().is_multiple_of(columns) || corners_mm.len() / columns < 2 {
+        if columns < 2
+            || !corners_mm.len().is_multiple_of(columns)
+            || corners_mm.len() / columns < 2
+        {
             return None;
         }
         let rows = corners_mm.len() / columns;

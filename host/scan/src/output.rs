@@ -29,6 +29,8 @@ pub struct ScanSummary {
     pub candidates: u64,
     /// EFSM pixels the decoder flagged aliased (two lights unresolved modulo the block width).
     pub aliased_pixels: u64,
+    /// Pixels the decoder flagged unresolved (two touching lights it could not split).
+    pub unresolved_pixels: u64,
     /// Candidates that triangulated inside the measurement volume.
     pub candidates_in_volume: usize,
     /// Pixels with a point.
@@ -54,7 +56,7 @@ pub struct SelectionSummary {
     pub epsilon_mm: f32,
     /// `β`, per mm.
     pub beta_per_mm: f32,
-    /// Whether aliased pixels were given no point.
+    /// Whether aliased and unresolved pixels were given no point.
     pub drop_aliased: bool,
 }
 

@@ -150,9 +150,10 @@ pub struct SelectionParams {
     pub beta_per_mm: f32,
     /// Drop a choice that no chosen neighbour lies within `2ε` of.
     pub drop_isolated: bool,
-    /// Give no point to a pixel the decoder flagged [`fsm_core::PixelFlags::ALIASED`] (EFSM:
-    /// two lights within `2Δc` of each other modulo the block width, so its candidates are
-    /// mixtures, off by up to a column): a missing point rather than a wrong one.
+    /// Give no point to a pixel whose candidates may be mixtures of two lights
+    /// ([`fsm_core::PixelFlags::is_mixed`]: aliased, EFSM lights unresolved modulo the block
+    /// width; unresolved, two touching lights the cosine search could not split): a missing
+    /// point rather than a wrong one.
     pub drop_aliased: bool,
 }
 

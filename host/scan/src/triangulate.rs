@@ -4,7 +4,7 @@
 //! per-pixel column range of that volume can also be given to the decoder beforehand
 //! ([`column_limits`]), which drops them before they are even triangulated.
 
-use fsm_core::{ColumnRange, PixelCandidates, PixelFlags};
+use fsm_core::{ColumnRange, PixelCandidates};
 use fsm_geometry::Calibration;
 use nalgebra::Point2;
 use rayon::prelude::*;
@@ -12,8 +12,8 @@ use rayon::prelude::*;
 use crate::selection::{CandidateField, Label};
 
 /// The candidates of `height` camera rows from `first_row` on, `width` pixels each (row-major
-/// `pixels`), triangulated; none for the pixels flagged [`PixelFlags::ALIASED`] when
-/// `drop_aliased`.
+/// `pixels`), triangulated; none for the pixels whose candidates may be mixtures
+/// ([`fsm_core::PixelFlags::is_mixed`]) when `drop_aliased`.
 pub fn candidate_field<const K: usize>(
     calibration: &Calibration,
     first_row: usize,
@@ -30,7 +30,7 @@ pub fn candidate_field<const K: usize>(
                 .map(|x| {
                     let pixel = Point2::new(x as f64, (first_row + y) as f64);
                     let candidates = &pixels[y * width + x];
-                    if drop_aliased && candidates.flags.contains(PixelFlags::ALIASED) {
+                    if drop_aliased && candidates.flags.is_mixed() {
                         return Vec::new();
                     }
                     let Ok(ray) = calibration.pixel_ray(pixel) else {

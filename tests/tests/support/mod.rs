@@ -9,7 +9,7 @@ use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
 use fsm_sim::{Capture, LightTransport, PixelTruth, Scene, Sensor, System, TransportSettings};
 
 /// Candidates kept per pixel in the tests.
-pub const K: usize = 8;
+pub const K: usize = 16;
 
 /// A band of rows simulated and decoded, with timings.
 pub struct Decoded {

@@ -75,12 +75,14 @@ pub fn run(args: Args) -> Result<()> {
     );
     eprintln!(
         "  {:.1}% of pixels have candidates, {:.2} per lit pixel; {} saturated, {} with more than the file's capacity, \
-         {} aliased (EFSM: two lights unresolved modulo the block width)",
+         {} aliased (EFSM: two lights unresolved modulo the block width), {} unresolved (two touching \
+         lights not split)",
         100.0 * summary.lit_pixels as f64 / pixels,
         summary.candidates as f64 / summary.lit_pixels.max(1) as f64,
         summary.saturated_pixels,
         summary.truncated_pixels,
-        summary.aliased_pixels
+        summary.aliased_pixels,
+        summary.unresolved_pixels
     );
     eprintln!(
         "  wrote {}/{{{CANDIDATE_FILE_NAME}, {COLUMN_TIFF_NAME}, {COLUMN_PREVIEW_NAME}}}",

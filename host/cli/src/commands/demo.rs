@@ -193,6 +193,11 @@ pub fn run(args: Args) -> Result<()> {
                     .iter()
                     .filter(|p| p.flags.contains(PixelFlags::ALIASED))
                     .count() as u64,
+                unresolved_pixels: decoded
+                    .pixels
+                    .iter()
+                    .filter(|p| p.flags.contains(PixelFlags::UNRESOLVED))
+                    .count() as u64,
                 candidates_in_volume: surface.candidates,
                 points: surface.points(),
                 decode_seconds,

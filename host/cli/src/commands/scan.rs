@@ -59,9 +59,10 @@ pub struct Args {
     /// (default: 1 per pixel footprint).
     #[arg(long, value_name = "PER_MM")]
     beta_per_mm: Option<f32>,
-    /// Keep the points of EFSM pixels whose lights are unresolved modulo the block width
-    /// (flagged aliased by the decoder; their columns are off by up to a column). By
-    /// default they get no point.
+    /// Keep the points of pixels whose candidates may be mixtures of two lights: EFSM lights
+    /// unresolved modulo the block width (flagged aliased), or two touching lights the
+    /// decoder could not split (flagged unresolved); their columns are off by up to a column.
+    /// By default they get no point.
     #[arg(long)]
     keep_aliased: bool,
     /// Decoding threads (default: one per core).
@@ -143,6 +144,7 @@ pub fn run(args: Args) -> Result<()> {
             drop_aliased: params.drop_aliased,
         },
         aliased_pixels: decode_summary.aliased_pixels,
+        unresolved_pixels: decode_summary.unresolved_pixels,
         calibration_checksum: format!("{:08x}", calibration.checksum()),
     };
     write_scan(staged.path(), &surface, &summary)?;
