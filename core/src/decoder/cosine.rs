@@ -5,6 +5,10 @@
 //! The loads and the transform are lane loops over `[f32; L]` with the same scalar operations
 //! in every lane, which the compiler turns into vector instructions where the target has
 //! them; the lights are read lane by lane. So `L` changes the speed, never the bits.
+//!
+//! [`decode_row_fastest`] enters the row's loop compiled for the widest instructions the CPU
+//! runs ([`Isa::detect`]): on x86-64, 16 lanes of AVX-512F or 8 of AVX2 where the CPU has
+//! them, else the build's own (SSE2, [`super::DEFAULT_LANES`]).
 
 use super::{saturation_code, Decoder, Row};
 use crate::candidate::{PixelCandidates, PixelFlags};
@@ -12,8 +16,10 @@ use crate::noise::{profile_noise_dn, sample_noise_dn};
 use crate::peak::PeakList;
 use crate::plan::sequence::Group;
 use crate::plan::ScanPlan;
-use crate::search::cosine::{self as search, LitColumns};
-use crate::transform::{CosineTransform, Lanes};
+use crate::search::cosine::{self as search, Search};
+use crate::transform::isa::Isa;
+use crate::transform::simd::Vector;
+use crate::transform::{CosineTransform, Lanes, TransformError};
 
 /// Floats of scratch for `L` lanes: the profiles (`span + 1` lanes), the transform's own
 /// scratch, one lane's broad light.
@@ -35,7 +41,7 @@ fn split<const L: usize>(
 
 /// What the dark and white frames say about one pixel.
 #[derive(Clone, Copy, Default)]
-struct References {
+pub(super) struct References {
     /// `dark + PA/(PA+PB)·(white − dark)`: the level a fringe sample swings about.
     offset: f32,
     /// `PB/(PA+PB)·(white − dark)`: the transform's term `h = 0`.
@@ -67,16 +73,17 @@ impl References {
 }
 
 /// Loads `z_0..=z_span` of `group` for the pixels `x0..x0 + refs.len()` into `profile`, lanes
-/// past them zero; returns which lanes saturated a fringe sample.
+/// past them zero, `L/W` chunks of the vector type `V` at a time; returns the lanes (bit `l`)
+/// that saturated a fringe sample.
 #[inline(always)]
-fn load<const L: usize>(
+fn load_with<const L: usize, const W: usize, V: Vector<W>>(
     plan: &ScanPlan,
     row: &Row<'_>,
     x0: usize,
     group: Group,
     refs: &[References],
     profile: &mut [Lanes<L>],
-) -> [bool; L] {
+) -> u32 {
     let mut offset = [0.0f32; L];
     let mut zero = [0.0f32; L];
     for (l, r) in refs.iter().enumerate() {
@@ -86,46 +93,262 @@ fn load<const L: usize>(
     profile[0] = zero;
     let start = plan.fringe_start(group);
     let w = row.width;
-    let mut brightest = [0u16; L];
+    // Codes are integers: a lane's largest code reaches the saturation code exactly when it
+    // is above half a code below it.
+    let saturation = saturation_code(row.bit_depth) as f32 - 0.5;
+    let mut saturated = 0u32;
     // Fringe `h − 1` is harmonic `h` (a full band starts at the first harmonic).
+    if refs.len() == L {
+        for c in 0..L / W {
+            let offset = V::load(&offset.as_chunks::<W>().0[c]);
+            let mut brightest = V::splat(0.0);
+            for (h, z) in profile.iter_mut().enumerate().skip(1) {
+                let at = (start + h - 1) * w + x0 + c * W;
+                let Some(codes) = row.frames.get(at..at + W) else {
+                    break;
+                };
+                let Ok(codes) = <&[u16; W]>::try_from(codes) else {
+                    break;
+                };
+                let s = V::load_codes(codes);
+                (s - offset).store(&mut z.as_chunks_mut::<W>().0[c]);
+                brightest = brightest.max(s);
+            }
+            saturated |= brightest.above(V::splat(saturation)) << (c * W);
+        }
+        return saturated;
+    }
+    // The row's last, partial chunk.
+    let mut brightest = [0u16; L];
     for (h, z) in profile.iter_mut().enumerate().skip(1) {
         let at = (start + h - 1) * w + x0;
-        match row
-            .frames
-            .get(at..at + L)
-            .and_then(|s| <&[u16; L]>::try_from(s).ok())
-        {
-            Some(samples) if refs.len() == L => {
-                for l in 0..L {
-                    z[l] = samples[l] as f32 - offset[l];
-                    brightest[l] = brightest[l].max(samples[l]);
-                }
-            }
-            // The row's last, partial chunk.
-            _ => {
-                *z = [0.0; L];
-                for l in 0..refs.len() {
-                    let s = row.frames[at + l];
-                    z[l] = s as f32 - offset[l];
-                    brightest[l] = brightest[l].max(s);
-                }
-            }
+        *z = [0.0; L];
+        for l in 0..refs.len() {
+            let s = row.frames[at + l];
+            z[l] = s as f32 - offset[l];
+            brightest[l] = brightest[l].max(s);
         }
     }
-    let saturation = saturation_code(row.bit_depth);
-    core::array::from_fn(|l| brightest[l] >= saturation)
+    for (l, &b) in brightest.iter().enumerate() {
+        saturated |= ((b as f32 > saturation) as u32) << l;
+    }
+    saturated
+}
+
+/// What the path keeps from chunk to chunk of a row: the search's working state and one
+/// peak list (setting them up costs more than a pixel's search).
+pub(super) struct RowState {
+    search: Search,
+    lights: PeakList,
+}
+
+impl RowState {
+    pub(super) fn new() -> Self {
+        RowState {
+            search: Search::new(),
+            lights: PeakList::default(),
+        }
+    }
+}
+
+/// The vector instructions a chunk of `L` lanes runs its lane loops with: the loads, the
+/// transform, the lit columns.
+pub(super) trait Path<const L: usize> {
+    fn load(
+        plan: &ScanPlan,
+        row: &Row<'_>,
+        x0: usize,
+        group: Group,
+        refs: &[References],
+        profile: &mut [Lanes<L>],
+    ) -> u32;
+    fn inverse(
+        transform: &CosineTransform<'_>,
+        data: &mut [Lanes<L>],
+        scratch: &mut [Lanes<L>],
+    ) -> Result<(), TransformError>;
+    fn find_lit(search: &mut Search, profile: &[Lanes<L>], thresholds: &[f32; L]);
+}
+
+/// Implements [`Path`]'s loops for one vector type `V` of `W` lanes, as many lanes as a
+/// chunk.
+macro_rules! path_with {
+    ($w:literal, $v:ty) => {
+        #[inline(always)]
+        fn load(
+            plan: &ScanPlan,
+            row: &Row<'_>,
+            x0: usize,
+            group: Group,
+            refs: &[References],
+            profile: &mut [Lanes<$w>],
+        ) -> u32 {
+            load_with::<$w, $w, $v>(plan, row, x0, group, refs, profile)
+        }
+        #[inline(always)]
+        fn find_lit(search: &mut Search, profile: &[Lanes<$w>], thresholds: &[f32; $w]) {
+            search.find_lit::<$w, $w, $v>(profile, thresholds)
+        }
+    };
+}
+
+/// What the build targets: SSE2 chunks of 4 lanes on x86-64 where 4 divides `L`, else scalar.
+pub(super) struct Portable;
+
+impl<const L: usize> Path<L> for Portable {
+    #[inline(always)]
+    fn load(
+        plan: &ScanPlan,
+        row: &Row<'_>,
+        x0: usize,
+        group: Group,
+        refs: &[References],
+        profile: &mut [Lanes<L>],
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        if L.is_multiple_of(4) {
+            return load_with::<L, 4, crate::transform::simd::F4>(
+                plan, row, x0, group, refs, profile,
+            );
+        }
+        load_with::<L, 1, f32>(plan, row, x0, group, refs, profile)
+    }
+    #[inline(always)]
+    fn inverse(
+        transform: &CosineTransform<'_>,
+        data: &mut [Lanes<L>],
+        scratch: &mut [Lanes<L>],
+    ) -> Result<(), TransformError> {
+        transform.inverse::<L>(data, scratch)
+    }
+    #[inline(always)]
+    fn find_lit(search: &mut Search, profile: &[Lanes<L>], thresholds: &[f32; L]) {
+        #[cfg(target_arch = "x86_64")]
+        if L.is_multiple_of(4) {
+            return search.find_lit::<L, 4, crate::transform::simd::F4>(profile, thresholds);
+        }
+        search.find_lit::<L, 1, f32>(profile, thresholds)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::{
+        decode_row, load_with, Decoder, Group, Path, PixelCandidates, References, Row, ScanPlan,
+        Search, TransformError,
+    };
+    use crate::transform::simd::{F16, F8};
+    use crate::transform::{CosineTransform, Lanes};
+
+    /// 8 lanes of AVX2: for [`decode_avx2`] only.
+    pub(super) struct Avx2;
+    /// 16 lanes of AVX-512F: for [`decode_avx512`] only.
+    pub(super) struct Avx512;
+
+    impl Path<8> for Avx2 {
+        path_with!(8, F8);
+        #[inline(always)]
+        fn inverse(
+            transform: &CosineTransform<'_>,
+            data: &mut [Lanes<8>],
+            scratch: &mut [Lanes<8>],
+        ) -> Result<(), TransformError> {
+            transform.inverse_with::<8, 8, F8>(data, scratch)
+        }
+    }
+
+    impl Path<16> for Avx512 {
+        path_with!(16, F16);
+        #[inline(always)]
+        fn inverse(
+            transform: &CosineTransform<'_>,
+            data: &mut [Lanes<16>],
+            scratch: &mut [Lanes<16>],
+        ) -> Result<(), TransformError> {
+            transform.inverse_with::<16, 16, F16>(data, scratch)
+        }
+    }
+
+    /// The row's loop compiled for AVX2 (every lane loop inlined into it).
+    #[target_feature(enable = "avx2")]
+    pub(super) fn decode_avx2<const K: usize>(
+        decoder: &Decoder<'_>,
+        transform: &CosineTransform<'_>,
+        row: &Row<'_>,
+        scratch: &mut [f32],
+        out: &mut [PixelCandidates<K>],
+    ) {
+        decode_row::<8, K, Avx2>(decoder, transform, row, scratch, out)
+    }
+
+    /// The row's loop compiled for AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn decode_avx512<const K: usize>(
+        decoder: &Decoder<'_>,
+        transform: &CosineTransform<'_>,
+        row: &Row<'_>,
+        scratch: &mut [f32],
+        out: &mut [PixelCandidates<K>],
+    ) {
+        decode_row::<16, K, Avx512>(decoder, transform, row, scratch, out)
+    }
+}
+
+/// Decodes every pixel of a checked `row` into `out` with the widest instructions `isa`
+/// says the CPU runs; `scratch` holds [`scratch_len`] floats of [`super::MAX_LANES`].
+#[allow(unsafe_code)]
+pub(super) fn decode_row_fastest<const K: usize>(
+    decoder: &Decoder<'_>,
+    transform: &CosineTransform<'_>,
+    isa: Isa,
+    row: &Row<'_>,
+    scratch: &mut [f32],
+    out: &mut [PixelCandidates<K>],
+) {
+    match isa {
+        // SAFETY: `isa` is what `Isa::detect` found this CPU and OS to run.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { x86::decode_avx512(decoder, transform, row, scratch, out) },
+        // SAFETY: as above.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { x86::decode_avx2(decoder, transform, row, scratch, out) },
+        _ => decode_row::<{ super::DEFAULT_LANES }, K, Portable>(
+            decoder, transform, row, scratch, out,
+        ),
+    }
+}
+
+/// Decodes every pixel of a checked `row` into `out`, `L` at a time, the transform taking
+/// path `P`.
+#[inline(always)]
+pub(super) fn decode_row<const L: usize, const K: usize, P: Path<L>>(
+    decoder: &Decoder<'_>,
+    transform: &CosineTransform<'_>,
+    row: &Row<'_>,
+    scratch: &mut [f32],
+    out: &mut [PixelCandidates<K>],
+) {
+    let mut state = RowState::new();
+    for (x0, pixels) in (0..row.width).step_by(L).zip(out.chunks_mut(L)) {
+        decode_pixels::<L, K, P>(decoder, transform, row, x0, scratch, &mut state, pixels);
+    }
 }
 
 /// Decodes the pixels `x0..x0 + out.len()` (at most `L`) of a checked `row` into `out`.
 #[inline(always)]
-pub(super) fn decode_pixels<const L: usize, const K: usize>(
+pub(super) fn decode_pixels<const L: usize, const K: usize, P: Path<L>>(
     decoder: &Decoder<'_>,
     transform: &CosineTransform<'_>,
     row: &Row<'_>,
     x0: usize,
     scratch: &mut [f32],
+    state: &mut RowState,
     out: &mut [PixelCandidates<K>],
 ) {
+    let RowState {
+        search: state,
+        lights,
+    } = state;
     let plan = &decoder.plan;
     let span = transform.span();
     let (profile, work, background) = split::<L>(scratch, span);
@@ -139,25 +362,24 @@ pub(super) fn decode_pixels<const L: usize, const K: usize>(
         }
     }
     let mut troubled = [true; L];
-    let mut lights = PeakList::default();
     for group in plan.groups() {
-        let saturated = load::<L>(plan, row, x0, group, &refs[..lanes], profile);
+        let saturated = P::load(plan, row, x0, group, &refs[..lanes], profile);
         // The scratch was sized for this transform: it cannot refuse it.
-        if transform.inverse::<L>(profile, work).is_err() {
+        if P::inverse(transform, profile, work).is_err() {
             return;
         }
         let noise: [f32; L] =
             core::array::from_fn(|l| profile_noise_dn(refs[l].sample_noise_dn, span as u16));
         let thresholds = noise.map(|n| plan.decoding.noise_factor * n);
-        let lit = LitColumns::find::<L>(profile, &thresholds);
+        P::find_lit(state, profile, &thresholds);
         for l in 0..lanes {
             let pixel = &mut out[l];
-            if saturated[l] {
+            if saturated & (1 << l) != 0 {
                 pixel.flags.insert(PixelFlags::SATURATED);
             }
-            search::find_lights(plan, profile, l, noise[l], &lit, background, &mut lights);
+            search::find_lights(plan, profile, l, noise[l], state, background, lights);
             let group_troubled =
-                decoder.add_group(row, x0 + l, group, &lights, refs[l].sample_noise_dn, pixel);
+                decoder.add_group(row, x0 + l, group, lights, refs[l].sample_noise_dn, pixel);
             troubled[l] &= group_troubled;
         }
     }
@@ -178,7 +400,7 @@ pub(super) fn profile<'s>(
     let span = transform.span();
     let (profile, work, _) = split::<1>(scratch, span);
     let refs = [References::of(&decoder.plan, row, x)];
-    load::<1>(&decoder.plan, row, x, group, &refs, profile);
+    Portable::load(&decoder.plan, row, x, group, &refs, profile);
     if transform.inverse::<1>(profile, work).is_err() {
         return &[];
     }
@@ -198,11 +420,24 @@ pub(super) fn lights(
     let span = transform.span();
     let (profile, work, background) = split::<1>(scratch, span);
     let refs = [References::of(&decoder.plan, row, x)];
-    load::<1>(&decoder.plan, row, x, group, &refs, profile);
+    Portable::load(&decoder.plan, row, x, group, &refs, profile);
     out.peaks.clear();
     if transform.inverse::<1>(profile, work).is_ok() {
         let noise = profile_noise_dn(refs[0].sample_noise_dn, span as u16);
-        let lit = LitColumns::find::<1>(profile, &[decoder.plan.decoding.noise_factor * noise]);
-        search::find_lights(&decoder.plan, profile, 0, noise, &lit, background, out);
+        let mut state = Search::new();
+        Portable::find_lit(
+            &mut state,
+            profile,
+            &[decoder.plan.decoding.noise_factor * noise],
+        );
+        search::find_lights(
+            &decoder.plan,
+            profile,
+            0,
+            noise,
+            &mut state,
+            background,
+            out,
+        );
     }
 }

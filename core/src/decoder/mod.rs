@@ -27,17 +27,21 @@ use crate::peak::deconvolution::FitTable;
 use crate::peak::PeakList;
 use crate::plan::sequence::Group;
 use crate::plan::{Method, PeakSearch, PlanError, ScanPlan, Window};
+use crate::transform::isa::Isa;
 use crate::transform::kernel::{self, Kernel};
 use crate::transform::spectrum::Spectrum;
 use crate::transform::CosineTransform;
 
-/// Pixels [`Decoder::decode_row`] decodes at once: wide on the host, where the lanes become
-/// vector registers, one on the camera's scalar core (see [`Decoder::decode_row_lanes`]).
+/// Pixels the build's own instructions decode at once: 4 in the SSE2 registers of the x86-64
+/// baseline, one on the camera's scalar core ([`Decoder::decode_row_lanes`]).
+/// [`Decoder::decode_row`] takes 8 or 16 where the CPU runs AVX2 or AVX-512F.
 #[cfg(target_arch = "x86_64")]
-pub const DEFAULT_LANES: usize = 8;
-/// Pixels [`Decoder::decode_row`] decodes at once (one lane: the camera's scalar core).
+pub const DEFAULT_LANES: usize = 4;
+/// Pixels the build's own instructions decode at once (one lane: the camera's scalar core).
 #[cfg(not(target_arch = "x86_64"))]
 pub const DEFAULT_LANES: usize = 1;
+/// Most pixels [`Decoder::decode_row`] decodes at once (AVX-512F).
+pub const MAX_LANES: usize = 16;
 
 /// One temporal row of captured frames.
 #[derive(Clone, Copy, Debug)]
@@ -139,6 +143,8 @@ impl From<PlanError> for DecoderError {
 pub struct Decoder<'t> {
     plan: ScanPlan,
     tables: Tables<'t>,
+    /// The vector instructions this CPU runs ([`Decoder::decode_row`] picks its lanes by it).
+    isa: Isa,
 }
 
 /// The tables of the plan's search.
@@ -172,9 +178,9 @@ impl<'t> Decoder<'t> {
             }
     }
 
-    /// Floats of scratch [`Decoder::decode_row`] and every other method need.
+    /// Floats of scratch [`Decoder::decode_row`] and every other method need, on any CPU.
     pub fn scratch_len(plan: &ScanPlan) -> usize {
-        Self::scratch_len_lanes::<DEFAULT_LANES>(plan)
+        Self::scratch_len_lanes::<MAX_LANES>(plan)
     }
 
     /// Floats of scratch [`Decoder::decode_row_lanes`] with `L` lanes needs (and enough for
@@ -241,6 +247,7 @@ impl<'t> Decoder<'t> {
             return Ok(Decoder {
                 plan: *plan,
                 tables: Tables::Cosine(transform),
+                isa: Isa::detect(),
             });
         }
         let too_short = DecoderError::TablesTooShort {
@@ -269,6 +276,7 @@ impl<'t> Decoder<'t> {
                 inverse_window_sum: (1.0 / sum) as f32,
                 bin_to_sample_noise: (sum / libm::sqrt(sum_sq)) as f32,
             }),
+            isa: Isa::detect(),
         })
     }
 
@@ -285,15 +293,29 @@ impl<'t> Decoder<'t> {
         }
     }
 
-    /// Decodes every pixel of `row` into `out` (one entry per pixel), [`DEFAULT_LANES`] pixels
-    /// at a time.
+    /// Decodes every pixel of `row` into `out` (one entry per pixel), as many pixels at a time
+    /// as this CPU's widest vector instructions hold (16 with AVX-512F, 8 with AVX2, else
+    /// [`DEFAULT_LANES`]): the same bits as any [`Decoder::decode_row_lanes`]. `scratch`
+    /// needs [`Decoder::scratch_len`] floats.
     pub fn decode_row<const K: usize>(
         &self,
         row: &Row<'_>,
         scratch: &mut [f32],
         out: &mut [PixelCandidates<K>],
     ) -> Result<(), RowError> {
-        self.decode_row_lanes::<DEFAULT_LANES, K>(row, scratch, out)
+        match &self.tables {
+            Tables::Cosine(transform) => {
+                self.check_row(row, scratch, Self::scratch_len(&self.plan), out.len())?;
+                cosine::decode_row_fastest::<K>(self, transform, self.isa, row, scratch, out);
+                Ok(())
+            }
+            Tables::Spectral(_) => self.decode_row_lanes::<1, K>(row, scratch, out),
+        }
+    }
+
+    /// The vector instructions [`Decoder::decode_row`] uses on this CPU.
+    pub fn isa(&self) -> Isa {
+        self.isa
     }
 
     /// Decodes every pixel of `row` into `out`, `L` adjacent pixels at a time (the cosine
@@ -310,18 +332,15 @@ impl<'t> Decoder<'t> {
         scratch: &mut [f32],
         out: &mut [PixelCandidates<K>],
     ) -> Result<(), RowError> {
-        self.check(row, scratch, Self::scratch_len_lanes::<L>(&self.plan))?;
-        if out.len() != row.width {
-            return Err(RowError::OutputLength {
-                expected: row.width,
-                actual: out.len(),
-            });
-        }
+        self.check_row(
+            row,
+            scratch,
+            Self::scratch_len_lanes::<L>(&self.plan),
+            out.len(),
+        )?;
         match &self.tables {
             Tables::Cosine(transform) => {
-                for (x0, pixels) in (0..row.width).step_by(L).zip(out.chunks_mut(L)) {
-                    cosine::decode_pixels::<L, K>(self, transform, row, x0, scratch, pixels);
-                }
+                cosine::decode_row::<L, K, cosine::Portable>(self, transform, row, scratch, out)
             }
             Tables::Spectral(tables) => {
                 // One peak list for the row: creating one per pixel clears 600 bytes each time.
@@ -344,12 +363,13 @@ impl<'t> Decoder<'t> {
     ) -> Result<(), RowError> {
         self.check_pixel(row, x, scratch)?;
         match &self.tables {
-            Tables::Cosine(transform) => cosine::decode_pixels::<1, K>(
+            Tables::Cosine(transform) => cosine::decode_pixels::<1, K, cosine::Portable>(
                 self,
                 transform,
                 row,
                 x,
                 scratch,
+                &mut cosine::RowState::new(),
                 core::slice::from_mut(out),
             ),
             Tables::Spectral(tables) => {
@@ -432,6 +452,23 @@ impl<'t> Decoder<'t> {
             }
         }
         Ok(peaks)
+    }
+
+    fn check_row(
+        &self,
+        row: &Row<'_>,
+        scratch: &[f32],
+        needed: usize,
+        pixels: usize,
+    ) -> Result<(), RowError> {
+        self.check(row, scratch, needed)?;
+        if pixels != row.width {
+            return Err(RowError::OutputLength {
+                expected: row.width,
+                actual: pixels,
+            });
+        }
+        Ok(())
     }
 
     fn check_pixel(&self, row: &Row<'_>, x: usize, scratch: &[f32]) -> Result<(), RowError> {

@@ -44,6 +44,7 @@ use crate::math::{exp, ln};
 use crate::peak::deconvolution::ColumnWeights;
 use crate::peak::{Peak, PeakList};
 use crate::plan::{ScanPlan, MAX_PEAKS};
+use crate::transform::simd::Vector;
 use crate::transform::Lanes;
 
 /// A minimum below this fraction of the lower of its two maxima separates two lights.
@@ -68,54 +69,71 @@ pub(crate) fn scratch_len(span: u16) -> usize {
     span as usize + 1
 }
 
-/// Most columns [`LitColumns`] records for a group of lanes; past it, each lane scans its
+/// Most columns [`Search`] records as lit for a group of lanes; past it, each lane scans its
 /// profile again.
 const MAX_LIT: usize = 512;
 
-/// The columns of `L` lanes' profiles above their lane's threshold, found in one pass over
-/// the profiles for every lane (a lane loop the compiler vectorises), so that each lane's
-/// search then reads only those columns: most of a profile is dark.
-pub(crate) struct LitColumns {
+/// The cosine search's working state, kept from pixel to pixel and row to row (setting it up
+/// costs more than a pixel's search): the lit columns of a group of lanes, the lights of one
+/// profile.
+pub(crate) struct Search {
     /// Lit columns, ascending, with the lanes (bit `l`) lit there.
-    columns: Vec<(u16, u32), MAX_LIT>,
+    lit: Vec<(u16, u32), MAX_LIT>,
     /// Whether every lit column is recorded.
     complete: bool,
+    found: Found,
 }
 
-impl LitColumns {
-    /// The columns `1..span` of `profile` above `thresholds` in any lane.
-    #[inline(always)]
-    pub(crate) fn find<const L: usize>(profile: &[Lanes<L>], thresholds: &[f32; L]) -> Self {
-        const { assert!(L <= 32, "a lane set is a u32") };
-        let mut lit = LitColumns {
-            columns: Vec::new(),
+impl Search {
+    pub(crate) const fn new() -> Self {
+        Search {
+            lit: Vec::new(),
             complete: true,
-        };
+            found: Found {
+                lights: Vec::new(),
+                unresolved: false,
+            },
+        }
+    }
+
+    /// Finds the columns `1..span` of `profile` above `thresholds` in any lane, in one pass
+    /// over the profiles for every lane (`L/W` chunks of the vector type `V`: one compare and
+    /// one mask per chunk and column), so that each lane's search then reads only those
+    /// columns: most of a profile is dark.
+    #[inline(always)]
+    pub(crate) fn find_lit<const L: usize, const W: usize, V: Vector<W>>(
+        &mut self,
+        profile: &[Lanes<L>],
+        thresholds: &[f32; L],
+    ) {
+        const { assert!(L <= 32, "a lane set is a u32") };
+        self.lit.clear();
+        self.complete = true;
         let span = profile.len().saturating_sub(1);
+        let thresholds = thresholds.as_chunks::<W>().0;
         for (j, p) in profile.iter().enumerate().take(span).skip(1) {
             let mut lanes = 0u32;
-            for l in 0..L {
-                lanes |= ((p[l] > thresholds[l]) as u32) << l;
+            for (c, (p, t)) in p.as_chunks::<W>().0.iter().zip(thresholds).enumerate() {
+                lanes |= V::load(p).above(V::load(t)) << (c * W);
             }
-            if lanes != 0 && lit.columns.push((j as u16, lanes)).is_err() {
-                lit.complete = false;
+            if lanes != 0 && self.lit.push((j as u16, lanes)).is_err() {
+                self.complete = false;
                 break;
             }
         }
-        lit
     }
 }
 
 /// The lights of lane `lane` of `profile[0..=span]`, whose columns have noise RMS
-/// `column_noise_dn`, written to `out`; `lit` holds the lit columns of the profiles
-/// ([`LitColumns::find`] with this lane's threshold, `noise_factor × column_noise_dn`).
+/// `column_noise_dn`, written to `out`; `search` holds the lit columns of the profiles
+/// ([`Search::find_lit`] with this lane's threshold, `noise_factor × column_noise_dn`).
 /// `background` holds [`scratch_len`] floats.
 pub(crate) fn find_lights<const L: usize>(
     plan: &ScanPlan,
     profile: &[Lanes<L>],
     lane: usize,
     column_noise_dn: f32,
-    lit: &LitColumns,
+    search: &mut Search,
     background: &mut [f32],
     out: &mut PeakList,
 ) {
@@ -130,17 +148,19 @@ pub(crate) fn find_lights<const L: usize>(
     };
     let threshold = levels.threshold;
     let value = |j: usize| profile[j][lane];
-    let mut found = Found::default();
+    let found = &mut search.found;
+    found.lights.clear();
+    found.unresolved = false;
     let mut each_run = |run: Run| {
         if run.len() < BACKGROUND_WINDOW {
-            lights_of_run(&value, &run, &levels, &mut found);
+            lights_of_run(&value, &run, &levels, found);
         } else {
-            broad_run(&value, &run, &levels, background, &mut found);
+            broad_run(&value, &run, &levels, background, found);
         }
     };
-    if lit.complete {
-        let mine = lit
-            .columns
+    if search.complete {
+        let mine = search
+            .lit
             .iter()
             .filter(|(_, lanes)| lanes & (1 << lane) != 0)
             .map(|&(j, _)| j as usize);
@@ -183,7 +203,6 @@ struct Levels {
 }
 
 /// Lights found so far in a profile.
-#[derive(Default)]
 struct Found {
     /// More than `MAX_PEAKS` are kept while searching: the weakest go at the end.
     lights: Vec<Peak, { 2 * MAX_PEAKS }>,

@@ -4,6 +4,7 @@
 //! |---|---|---|
 //! | exact inverse cosine transform (DCT-I) of a full band, `L` pixels at once | [`cosine`] | the cosine search |
 //! | lane-parallel mixed-radix complex FFT under it | [`fft`] | [`cosine`] |
+//! | the vector instructions this CPU runs, found at run time | [`isa`] | the decoder |
 //! | zero-padded real DFT of the fringe samples (`microfft`) | [`spectrum`] | CLEAN, local maxima |
 //! | modelled spectrum of one lit column | [`kernel`] | CLEAN, local maxima, deconvolution |
 //!
@@ -14,8 +15,9 @@
 
 pub mod cosine;
 pub mod fft;
+pub mod isa;
 pub mod kernel;
-mod lanes;
+pub(crate) mod simd;
 pub mod spectrum;
 
 /// One `f32` per pixel: `L` pixels processed at once (struct-of-arrays). Element `k` of a

@@ -5,23 +5,23 @@
 //! and `B_t = Σ (a_r − a_(R−r))·sin(2πrt/R)`. No temporaries (the sums are recomputed per
 //! `t`), so it needs no scratch of its own; it is the slow path for awkward lengths.
 
-use super::{cadd, cadd_i, cmul, cscale, csub, csub_i, C};
+use super::Cx;
+use crate::transform::simd::Vector;
 
-/// Out-of-place stage on flattened planes; `tables` holds the twiddle rows then the roots.
+/// Out-of-place stage on split planes of `n`; `tables` holds the twiddle rows then the roots.
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
-pub(super) fn pass<const L: usize>(
-    xr: &[f32],
-    xi: &[f32],
-    yr: &mut [f32],
-    yi: &mut [f32],
+pub(super) fn pass<const W: usize, V: Vector<W>>(
+    x: &[[f32; W]],
+    y: &mut [[f32; W]],
+    n: usize,
     s: usize,
     q: usize,
     radix: usize,
     tables: &[f32],
 ) {
-    let unit = s * L;
-    let blk = q * unit;
+    let (xr, xi) = x.split_at(n);
+    let (yr, yi) = y.split_at_mut(n);
+    let blk = q * s;
     let row_len = 2 * (radix - 1);
     let (tw, roots) = tables.split_at(row_len * (q - 1));
     let roots = &roots[..2 * radix];
@@ -32,41 +32,50 @@ pub(super) fn pass<const L: usize>(
         } else {
             &tw[row_len * (p - 1)..][..row_len]
         };
-        for i in 0..unit {
-            let base = p * unit + i;
-            let x = |r: usize| -> C<1> { [[xr[r * blk + base]], [xi[r * blk + base]]] };
-            let out = |t: usize| (p * radix + t) * unit + i;
+        for k in 0..s {
+            let base = p * s + k;
+            let x = |r: usize| -> Cx<V> {
+                Cx {
+                    re: V::load(&xr[r * blk + base]),
+                    im: V::load(&xi[r * blk + base]),
+                }
+            };
+            let mut out = |t: usize, v: Cx<V>| {
+                let at = (p * radix + t) * s + k;
+                v.re.store(&mut yr[at]);
+                v.im.store(&mut yi[at]);
+            };
             let a0 = x(0);
             let mut b0 = a0;
             for r in 1..=h {
-                b0 = cadd(b0, cadd(x(r), x(radix - r)));
+                b0 = b0.add(x(r).add(x(radix - r)));
             }
-            yr[out(0)] = b0[0][0];
-            yi[out(0)] = b0[1][0];
+            out(0, b0);
             for t in 1..=h {
                 let mut ar = a0;
-                let mut bi: C<1> = [[0.0], [0.0]];
+                let mut bi = Cx {
+                    re: V::splat(0.0),
+                    im: V::splat(0.0),
+                };
                 let mut u = 0;
                 for r in 1..=h {
                     u += t;
                     if u >= radix {
                         u -= radix;
                     }
-                    let (c, sn) = (roots[2 * u], roots[2 * u + 1]);
-                    ar = cadd(ar, cscale(cadd(x(r), x(radix - r)), c));
-                    bi = cadd(bi, cscale(csub(x(r), x(radix - r)), sn));
+                    let (c, sn) = (V::splat(roots[2 * u]), V::splat(roots[2 * u + 1]));
+                    ar = ar.add(x(r).add(x(radix - r)).scale(c));
+                    bi = bi.add(x(r).sub(x(radix - r)).scale(sn));
                 }
-                let mut lo = csub_i(ar, bi);
-                let mut hi = cadd_i(ar, bi);
+                let mut lo = ar.sub_i(bi);
+                let mut hi = ar.add_i(bi);
                 if p > 0 {
-                    lo = cmul(lo, row[2 * (t - 1)], row[2 * (t - 1) + 1]);
+                    lo = lo.mul(Cx::splat(row[2 * (t - 1)], row[2 * (t - 1) + 1]));
                     let u = radix - t;
-                    hi = cmul(hi, row[2 * (u - 1)], row[2 * (u - 1) + 1]);
+                    hi = hi.mul(Cx::splat(row[2 * (u - 1)], row[2 * (u - 1) + 1]));
                 }
-                yr[out(t)] = lo[0][0];
-                yi[out(t)] = lo[1][0];
-                yr[out(radix - t)] = hi[0][0];
-                yi[out(radix - t)] = hi[1][0];
+                out(t, lo);
+                out(radix - t, hi);
             }
         }
     }

@@ -1,11 +1,13 @@
 //! Lane-parallel mixed-radix complex FFT of any length `len ≥ 1`.
 //!
-//! Forward transform `X_k = Σ_j x_j · e^(−2πi·jk/len)`, unscaled, computed for `L` pixels at once.
+//! Forward transform `X_k = Σ_j x_j · e^(−2πi·jk/len)`, unscaled, computed for `W` pixels at
+//! once by explicit vectors (`simd.rs`), one IEEE operation per lane and step.
 //!
 //! # Layout
-//! A complex signal of length `len` lives in one slice of `2·len` [`Lanes`]: the real parts in
-//! `[0, len)`, the imaginary parts in `[len, 2·len)` (split planes: every inner-loop access is
-//! a plain `slice[k]` with `k < slice.len()` known, so no bounds checks stay in the loops).
+//! A complex signal of length `len` lives in one slice of `2·len` vectors of `W` lanes: the
+//! real parts in `[0, len)`, the imaginary parts in `[len, 2·len)`. [`Fft::forward`] takes
+//! [`Lanes`] elements directly (`W = L`, portable arrays); the cosine transform runs each
+//! `W`-lane chunk of its pixels on its own contiguous planes (the vector is the element).
 //!
 //! # Algorithm
 //! Stockham autosort, decimation in frequency: stage `i` of radix `R` reads sub-sequences of
@@ -15,8 +17,20 @@
 //! (`q = 1`) has no twiddles and reads and writes the same places, so it can run in place:
 //! that is how an odd number of stages still ends in the caller's buffer.
 //!
-//! Radices: 8, 4 and 2 for the power of two, 3 and 5, and any other prime as a direct
-//! O(p²) DFT (`generic.rs`).
+//! Radices: 8 (and one or two 4s, or a 2) for the power of two, 6 (= 2·3 by Good–Thomas,
+//! no inner twiddles) when it saves a stage (384 = 6·8·8), 3 and 5, and any other prime as
+//! a direct O(p²) DFT (`generic.rs`). Few, large stages: every stage is one pass of loads
+//! and stores, and every stage but the last multiplies by twiddles.
+//!
+//! # Kernels
+//! Each butterfly loads its `R` inputs, transforms, twiddles and stores in registers. A
+//! stage's inputs and outputs are `2R` strided runs; with runtime strides each run needs a
+//! pointer register, more than x86-64 has for radix 8. So the stages of the plans of 32 to
+//! 1024 points (spans 64 to 2048, see `shaped!`) are compiled for their constant `s` and
+//! `q`: all runs are constant offsets from two pointers and the bounds checks fold away.
+//! Other shapes take the general kernel (one sub-slice per run, checked once per row).
+//! The plan and the operations are the same for every vector width, so every path gives
+//! the same bits.
 //!
 //! # Tables
 //! For each stage in order: the twiddles of rows `p = 1..q` (row 0 is all ones and is
@@ -26,7 +40,7 @@
 //! rounded once to f32, so every machine builds the same bits.
 
 use crate::transform::cosine::TransformError;
-use crate::transform::lanes::{add, mul_add2, mul_sub, scale, sub};
+use crate::transform::simd::{Arith, Array, Vector};
 use crate::transform::Lanes;
 
 mod generic;
@@ -34,6 +48,7 @@ mod radix2;
 mod radix3;
 mod radix4;
 mod radix5;
+mod radix6;
 mod radix8;
 
 /// Longest supported FFT (keeps every index product far from overflow).
@@ -52,9 +67,11 @@ pub struct Plan {
 impl Plan {
     /// Deterministic factorisation of `len` (which must be in `1..=MAX_LEN`).
     ///
-    /// Order: other primes, then 5s, then 3s, then the power of two as one radix-8 stage
-    /// when the exponent is odd followed by radix-4 stages (radix 2 only for len 2·odd).
-    /// Ending on a fixed radix lets the in-place last stage absorb an odd stage count.
+    /// Order: other primes, then 5s, then 3s, then the power of two `2^t` as radix-8
+    /// stages followed by one radix 4 (`t ≡ 2 mod 3`) or two (`t ≡ 1`, `t ≥ 4`); when
+    /// `t ≡ 1 mod 3` and there is a 3, the lone 2 joins it as a radix 6 instead (placed
+    /// after the 3s); radix 2 only for `len = 2·odd`. Ending on a fixed radix lets the
+    /// in-place last stage absorb an odd stage count.
     pub fn new(len: usize) -> Plan {
         let mut plan = Plan {
             radices: [0; MAX_STAGES],
@@ -91,19 +108,33 @@ impl Plan {
         for _ in 0..fives {
             plan.push(5);
         }
+        // 2^twos as radix-8 stages, with the remainder of 3 as one 4 or two 4s; a lone
+        // leftover 2 joins a 3 as radix 6 (384 = 6·8·8 instead of 3·8·4·4).
+        let six = twos % 3 == 1 && threes > 0;
+        if six {
+            twos -= 1;
+            threes -= 1;
+        }
         for _ in 0..threes {
             plan.push(3);
         }
-        if twos == 1 {
+        if six {
+            plan.push(6);
+        }
+        let (eights, fours, two) = match twos % 3 {
+            0 => (twos / 3, 0, false),
+            2 => (twos / 3, 1, false),
+            _ if twos == 1 => (0, 0, true),
+            _ => (twos / 3 - 1, 2, false),
+        };
+        for _ in 0..eights {
+            plan.push(8);
+        }
+        for _ in 0..fours {
+            plan.push(4);
+        }
+        if two {
             plan.push(2);
-        } else {
-            if twos % 2 == 1 {
-                plan.push(8);
-                twos -= 3;
-            }
-            for _ in 0..twos / 2 {
-                plan.push(4);
-            }
         }
         plan
     }
@@ -131,7 +162,7 @@ fn stage_tables_len(r: usize, q: usize) -> usize {
 
 /// Radices with a dedicated butterfly (and an in-place last stage).
 fn is_fixed(r: usize) -> bool {
-    matches!(r, 2 | 3 | 4 | 5 | 8)
+    matches!(r, 2 | 3 | 4 | 5 | 6 | 8)
 }
 
 /// `(cos θ, sin θ)` of `θ = 2π·num/den`, in f64.
@@ -278,16 +309,21 @@ impl<'t> Fft<'t> {
                 got: work.len(),
             });
         }
-        self.run(&mut buf[..needed], &mut work[..needed]);
+        self.run::<L, Array<L>>(&mut buf[..needed], &mut work[..needed]);
         Ok(())
     }
 
-    /// [`Fft::forward`] on slices of exactly `2·len` (checked by the callers).
-    pub(crate) fn run<const L: usize>(&self, buf: &mut [Lanes<L>], work: &mut [Lanes<L>]) {
+    /// [`Fft::forward`] on planes of `W`-lane vectors, slices of exactly `2·len`.
+    #[inline(always)]
+    pub(crate) fn run<const W: usize, V: Vector<W>>(
+        &self,
+        buf: &mut [[f32; W]],
+        work: &mut [[f32; W]],
+    ) {
         let n = self.len;
         let radices = self.plan.radices();
         let stages = radices.len();
-        if stages == 0 {
+        if stages == 0 || buf.len() != 2 * n || work.len() != 2 * n {
             return;
         }
         let odd = stages % 2 == 1;
@@ -306,12 +342,9 @@ impl<'t> Fft<'t> {
             let len = stage_tables_len(r, q);
             let tw = &self.tables[offset..offset + len];
             if i + 1 == stages && odd && last_fixed {
-                let (yr, yi) = src.split_at_mut(n);
-                last_in_place(yr, yi, s, r);
+                last_in_place::<W, V>(src, n, s, r);
             } else {
-                let (xr, xi) = src.split_at(n);
-                let (yr, yi) = dst.split_at_mut(n);
-                stage(xr, xi, yr, yi, s, q, r, tw);
+                stage::<W, V>(src, dst, n, s, q, r, tw);
                 core::mem::swap(&mut src, &mut dst);
             }
             offset += len;
@@ -329,87 +362,264 @@ fn check_len(len: usize) -> Result<(), TransformError> {
     }
 }
 
-/// One out-of-place stage, dispatched on the radix.
-#[allow(clippy::too_many_arguments)]
-fn stage<const L: usize>(
-    xr: &[Lanes<L>],
-    xi: &[Lanes<L>],
-    yr: &mut [Lanes<L>],
-    yi: &mut [Lanes<L>],
+/// Stage shapes `(radix, s, q)` with a kernel compiled for constant `s` and `q` (all offsets
+/// immediates, two pointers): the out-of-place stages of the plans of 32, 64, 128, 256, 384,
+/// 512 and 1024 points (spans 64 to 2048; the in-place last stages are in
+/// [`last_in_place`]). Other shapes take the general kernel.
+macro_rules! shaped {
+    ($r:expr, $s:expr, $q:expr, $x:expr, $y:expr, $tw:expr, $other:block,
+     $(($R:literal, $B:ty, $S:literal, $Q:literal)),* $(,)?) => {
+        match ($r, $s, $q) {
+            $(($R, $S, $Q) => pass_shaped::<W, V, $R, $B, $S, $Q>($x, $y, $tw),)*
+            _ => $other,
+        }
+    };
+}
+
+/// One out-of-place stage, dispatched on the radix (and the shape).
+#[inline(always)]
+fn stage<const W: usize, V: Vector<W>>(
+    x: &[[f32; W]],
+    y: &mut [[f32; W]],
+    n: usize,
     s: usize,
     q: usize,
     r: usize,
     tw: &[f32],
 ) {
-    match r {
-        2 => radix2::pass(xr, xi, yr, yi, s, q, tw),
-        3 => radix3::pass(xr, xi, yr, yi, s, q, tw),
-        4 => radix4::pass(xr, xi, yr, yi, s, q, tw),
-        5 => radix5::pass(xr, xi, yr, yi, s, q, tw),
-        8 => radix8::pass(xr, xi, yr, yi, s, q, tw),
-        _ => {
-            let (xr, xi) = (xr.as_flattened(), xi.as_flattened());
-            let (yr, yi) = (yr.as_flattened_mut(), yi.as_flattened_mut());
-            generic::pass::<L>(xr, xi, yr, yi, s, q, r, tw)
+    shaped!(
+        r,
+        s,
+        q,
+        x,
+        y,
+        tw,
+        {
+            match r {
+                2 => pass_fixed::<W, V, 2, radix2::Radix>(x, y, n, s, q, tw),
+                3 => pass_fixed::<W, V, 3, radix3::Radix>(x, y, n, s, q, tw),
+                4 => pass_fixed::<W, V, 4, radix4::Radix>(x, y, n, s, q, tw),
+                5 => pass_fixed::<W, V, 5, radix5::Radix>(x, y, n, s, q, tw),
+                6 => pass_fixed::<W, V, 6, radix6::Radix>(x, y, n, s, q, tw),
+                8 => pass_fixed::<W, V, 8, radix8::Radix>(x, y, n, s, q, tw),
+                _ => generic::pass::<W, V>(x, y, n, s, q, r, tw),
+            }
+        },
+        (8, radix8::Radix, 1, 4),
+        (4, radix4::Radix, 8, 1),
+        (8, radix8::Radix, 1, 8),
+        (8, radix8::Radix, 8, 1),
+        (8, radix8::Radix, 1, 16),
+        (4, radix4::Radix, 8, 4),
+        (8, radix8::Radix, 1, 32),
+        (8, radix8::Radix, 8, 4),
+        (6, radix6::Radix, 1, 64),
+        (8, radix8::Radix, 6, 8),
+        (8, radix8::Radix, 1, 64),
+        (8, radix8::Radix, 8, 8),
+        (8, radix8::Radix, 1, 128),
+        (8, radix8::Radix, 8, 16),
+        (4, radix4::Radix, 64, 4),
+        (4, radix4::Radix, 256, 1),
+    )
+}
+
+/// The last stage (`q = 1`, no twiddles) in place, for a fixed radix.
+#[inline(always)]
+fn last_in_place<const W: usize, V: Vector<W>>(y: &mut [[f32; W]], n: usize, s: usize, r: usize) {
+    match (r, s) {
+        (8, 48) => last_shaped::<W, V, 8, radix8::Radix, 48>(y),
+        (8, 64) => last_shaped::<W, V, 8, radix8::Radix, 64>(y),
+        (4, 32) => last_shaped::<W, V, 4, radix4::Radix, 32>(y),
+        (4, 64) => last_shaped::<W, V, 4, radix4::Radix, 64>(y),
+        (2, _) => last_fixed::<W, V, 2, radix2::Radix>(y, n, s),
+        (3, _) => last_fixed::<W, V, 3, radix3::Radix>(y, n, s),
+        (4, _) => last_fixed::<W, V, 4, radix4::Radix>(y, n, s),
+        (5, _) => last_fixed::<W, V, 5, radix5::Radix>(y, n, s),
+        (6, _) => last_fixed::<W, V, 6, radix6::Radix>(y, n, s),
+        _ => last_fixed::<W, V, 8, radix8::Radix>(y, n, s),
+    }
+}
+
+/// Out-of-place stage of radix `R` written with plain indices: called with constant `s` and
+/// `q`, every index is a constant offset from two pointers and every bounds check folds away.
+#[inline(always)]
+fn pass_shaped<
+    const W: usize,
+    V: Vector<W>,
+    const R: usize,
+    B: Butterfly<R>,
+    const S: usize,
+    const Q: usize,
+>(
+    x: &[[f32; W]],
+    y: &mut [[f32; W]],
+    tw: &[f32],
+) {
+    let (s, q) = (S, Q);
+    let n = R * s * q;
+    let blk = q * s;
+    let rl = 2 * (R - 1);
+    let (x, y, tw) = (&x[..2 * n], &mut y[..2 * n], &tw[..rl * (q - 1)]);
+    let one = [Cx::<V>::splat(1.0, 0.0); R];
+    shaped_row::<W, V, R, B, false>(x, y, s, blk, 0, &one);
+    for p in 1..q {
+        let w = row_twiddles::<V, R>(&tw[rl * (p - 1)..][..rl]);
+        shaped_row::<W, V, R, B, true>(x, y, s, blk, p, &w);
+    }
+}
+
+/// Row `p` of [`pass_shaped`]: `s` butterflies, twiddled by `w` if `TW`.
+#[inline(always)]
+fn shaped_row<const W: usize, V: Vector<W>, const R: usize, B: Butterfly<R>, const TW: bool>(
+    x: &[[f32; W]],
+    y: &mut [[f32; W]],
+    s: usize,
+    blk: usize,
+    p: usize,
+    w: &[Cx<V>; R],
+) {
+    let n = R * blk;
+    for k in 0..s {
+        let i = p * s + k;
+        let mut a = [Cx::<V>::splat(0.0, 0.0); R];
+        for r in 0..R {
+            a[r] = load(&x[r * blk + i], &x[n + r * blk + i]);
+        }
+        B::run(&mut a);
+        let o = p * R * s + k;
+        for t in 0..R {
+            let v = if TW && t > 0 { a[t].mul(w[t]) } else { a[t] };
+            v.re.store(&mut y[o + t * s]);
+            v.im.store(&mut y[n + o + t * s]);
         }
     }
 }
 
-/// The last stage (`q = 1`, no twiddles) in place, for a fixed radix.
-fn last_in_place<const L: usize>(yr: &mut [Lanes<L>], yi: &mut [Lanes<L>], s: usize, r: usize) {
-    match r {
-        2 => radix2::last(yr, yi, s),
-        3 => radix3::last(yr, yi, s),
-        4 => radix4::last(yr, yi, s),
-        5 => radix5::last(yr, yi, s),
-        _ => radix8::last(yr, yi, s),
+/// The in-place last stage (`q = 1`) of radix `R` for a constant `s`.
+#[inline(always)]
+fn last_shaped<const W: usize, V: Vector<W>, const R: usize, B: Butterfly<R>, const S: usize>(
+    y: &mut [[f32; W]],
+) {
+    let s = S;
+    let n = R * s;
+    let y = &mut y[..2 * n];
+    for k in 0..s {
+        let mut a = [Cx::<V>::splat(0.0, 0.0); R];
+        for r in 0..R {
+            a[r] = load(&y[r * s + k], &y[n + r * s + k]);
+        }
+        B::run(&mut a);
+        for t in 0..R {
+            a[t].re.store(&mut y[t * s + k]);
+            a[t].im.store(&mut y[n + t * s + k]);
+        }
     }
 }
 
-/// One complex value per lane, `[re, im]`.
-pub(crate) type C<const L: usize> = [Lanes<L>; 2];
-
-/// `a + b`.
-#[inline(always)]
-pub(crate) fn cadd<const L: usize>(a: C<L>, b: C<L>) -> C<L> {
-    [add(a[0], b[0]), add(a[1], b[1])]
+/// One complex value per lane.
+#[derive(Clone, Copy)]
+pub(crate) struct Cx<V> {
+    pub(crate) re: V,
+    pub(crate) im: V,
 }
 
-/// `a − b`.
-#[inline(always)]
-pub(crate) fn csub<const L: usize>(a: C<L>, b: C<L>) -> C<L> {
-    [sub(a[0], b[0]), sub(a[1], b[1])]
+impl<V: Arith> Cx<V> {
+    /// `a + b`.
+    #[inline(always)]
+    pub(crate) fn add(self, b: Self) -> Self {
+        Cx {
+            re: self.re + b.re,
+            im: self.im + b.im,
+        }
+    }
+
+    /// `a − b`.
+    #[inline(always)]
+    pub(crate) fn sub(self, b: Self) -> Self {
+        Cx {
+            re: self.re - b.re,
+            im: self.im - b.im,
+        }
+    }
+
+    /// `a − i·b`.
+    #[inline(always)]
+    pub(crate) fn sub_i(self, b: Self) -> Self {
+        Cx {
+            re: self.re + b.im,
+            im: self.im - b.re,
+        }
+    }
+
+    /// `a + i·b`.
+    #[inline(always)]
+    pub(crate) fn add_i(self, b: Self) -> Self {
+        Cx {
+            re: self.re - b.im,
+            im: self.im + b.re,
+        }
+    }
+
+    /// `a·w` for a real `w`.
+    #[inline(always)]
+    pub(crate) fn scale(self, w: V) -> Self {
+        Cx {
+            re: self.re * w,
+            im: self.im * w,
+        }
+    }
+
+    /// `a·w`: four products, a difference and a sum (never fused).
+    #[inline(always)]
+    pub(crate) fn mul(self, w: Self) -> Self {
+        Cx {
+            re: self.re * w.re - self.im * w.im,
+            im: self.re * w.im + self.im * w.re,
+        }
+    }
+
+    /// A twiddle from its table entry `(re, im)`.
+    #[inline(always)]
+    pub(crate) fn splat(re: f32, im: f32) -> Self {
+        Cx {
+            re: V::splat(re),
+            im: V::splat(im),
+        }
+    }
 }
 
-/// `a − i·b`.
+/// Loads element `k` of the split planes `re`, `im`.
 #[inline(always)]
-pub(crate) fn csub_i<const L: usize>(a: C<L>, b: C<L>) -> C<L> {
-    [add(a[0], b[1]), sub(a[1], b[0])]
+fn load<const W: usize, V: Vector<W>>(re: &[f32; W], im: &[f32; W]) -> Cx<V> {
+    Cx {
+        re: V::load(re),
+        im: V::load(im),
+    }
 }
 
-/// `a + i·b`.
+/// Stores `a` to element `k` of the split planes.
 #[inline(always)]
-pub(crate) fn cadd_i<const L: usize>(a: C<L>, b: C<L>) -> C<L> {
-    [sub(a[0], b[1]), add(a[1], b[0])]
+fn store<const W: usize, V: Vector<W>>(a: Cx<V>, re: &mut [f32; W], im: &mut [f32; W]) {
+    a.re.store(re);
+    a.im.store(im);
 }
 
-/// `a·w` for a real scalar `w`.
-#[inline(always)]
-pub(crate) fn cscale<const L: usize>(a: C<L>, w: f32) -> C<L> {
-    [scale(a[0], w), scale(a[1], w)]
-}
-
-/// `a·(wr + i·wi)` for a scalar twiddle: four products, a difference and a sum (never fused).
-#[inline(always)]
-pub(crate) fn cmul<const L: usize>(a: C<L>, wr: f32, wi: f32) -> C<L> {
-    [mul_sub(a[0], wr, a[1], wi), mul_add2(a[0], wi, a[1], wr)]
-}
-
-/// A fixed-radix DFT kernel, in place on `R` values of `L` lanes. A trait (not a closure)
-/// so that `#[inline(always)]` reaches into every pass.
+/// A fixed-radix DFT kernel, in place on `R` values. A trait (not a closure) so that
+/// `#[inline(always)]` reaches into every pass.
 pub(crate) trait Butterfly<const R: usize> {
     /// `a ← DFT_R(a)` with `ω = e^(−2πi/R)`.
-    fn run<const L: usize>(a: &mut [C<L>; R]);
+    fn run<V: Arith>(a: &mut [Cx<V>; R]);
+}
+
+/// The `R` runs `x[r·stride..][..len]`.
+#[inline(always)]
+fn runs<T, const R: usize>(x: &[T], stride: usize, len: usize) -> [&[T]; R] {
+    let mut out: [&[T]; R] = [&[]; R];
+    for (r, o) in out.iter_mut().enumerate() {
+        *o = &x[r * stride..][..len];
+    }
+    out
 }
 
 /// Splits `rest` into `R` consecutive mutable pieces of `len`.
@@ -422,101 +632,127 @@ fn split_mut<T, const R: usize>(mut rest: &mut [T], len: usize) -> [&mut [T]; R]
     })
 }
 
-/// One butterfly: loads element `k` of the `R` input runs, transforms, twiddles (if `TW`),
-/// stores element `k` of the `R` output runs. Loads all come before stores, so LLVM's SLP
-/// vectoriser packs the lanes of each value; `black_box` keeps the loop vectoriser from
-/// instead vectorising across `k` (strided gathers), at no instruction cost.
+/// The twiddles of one row, `w^(pt)` for `t = 1..R` (`a[0]` is unused).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn kernel<const L: usize, const R: usize, B: Butterfly<R>, const TW: bool>(
-    xr: &[&[Lanes<L>]; R],
-    xi: &[&[Lanes<L>]; R],
-    yr: &mut [&mut [Lanes<L>]; R],
-    yi: &mut [&mut [Lanes<L>]; R],
-    w: &[[f32; 2]; R],
-    k: usize,
-) {
-    core::hint::black_box(k);
-    let mut a = [[[0.0f32; L]; 2]; R];
-    for r in 0..R {
-        a[r] = [xr[r][k], xi[r][k]];
+fn row_twiddles<V: Arith, const R: usize>(row: &[f32]) -> [Cx<V>; R] {
+    let mut w = [Cx::splat(1.0, 0.0); R];
+    for t in 1..R {
+        w[t] = Cx::splat(row[2 * (t - 1)], row[2 * (t - 1) + 1]);
     }
-    B::run(&mut a);
-    if TW {
-        for t in 1..R {
-            a[t] = cmul(a[t], w[t][0], w[t][1]);
-        }
-    }
-    for t in 0..R {
-        yr[t][k] = a[t][0];
-        yi[t][k] = a[t][1];
-    }
+    w
 }
 
-/// Generic body of an out-of-place stage with a fixed radix `R` and butterfly `B`:
-/// row `p` reads the runs of `s` elements at `(r·q + p)·s` and writes `(p·R + t)·s`.
+/// Loads element `k` of the `R` runs `re[r]`, `im[r]`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn pass_fixed<const L: usize, const R: usize, B: Butterfly<R>>(
-    xr: &[Lanes<L>],
-    xi: &[Lanes<L>],
-    yr: &mut [Lanes<L>],
-    yi: &mut [Lanes<L>],
+fn load_runs<const W: usize, V: Vector<W>, const R: usize>(
+    re: &[&[[f32; W]]; R],
+    im: &[&[[f32; W]]; R],
+    k: usize,
+) -> [Cx<V>; R] {
+    let mut a = [Cx::splat(0.0, 0.0); R];
+    for r in 0..R {
+        a[r] = load(&re[r][k], &im[r][k]);
+    }
+    a
+}
+
+/// Out-of-place stage of a fixed radix `R`: row `p` reads the runs of `s` elements at
+/// `(r·q + p)·s` and writes `(p·R + t)·s`. Planes: `x[..n]` real parts, `x[n..]` imaginary.
+#[inline(always)]
+fn pass_fixed<const W: usize, V: Vector<W>, const R: usize, B: Butterfly<R>>(
+    x: &[[f32; W]],
+    y: &mut [[f32; W]],
+    n: usize,
     s: usize,
     q: usize,
     tw: &[f32],
 ) {
+    let (xr, xi) = x.split_at(n);
+    let (yr, yi) = y.split_at_mut(n);
     let blk = q * s;
     let row_len = 2 * (R - 1);
+    if s == 1 {
+        // First stage: one butterfly per row, inputs strided by q, outputs contiguous.
+        let xr: [&[[f32; W]]; R] = runs(xr, q, q);
+        let xi: [&[[f32; W]]; R] = runs(xi, q, q);
+        let (yr, _) = yr[..R * q].as_chunks_mut::<R>();
+        let (yi, _) = yi[..R * q].as_chunks_mut::<R>();
+        let rows = tw.chunks_exact(row_len);
+        let outs = yr.iter_mut().zip(yi.iter_mut()).enumerate().skip(1);
+        for ((p, (yr, yi)), row) in outs.zip(rows) {
+            let mut a = load_runs::<W, V, R>(&xr, &xi, p);
+            B::run(&mut a);
+            let w = row_twiddles::<V, R>(row);
+            for t in 0..R {
+                let v = if t == 0 { a[t] } else { a[t].mul(w[t]) };
+                store(v, &mut yr[t], &mut yi[t]);
+            }
+        }
+        if let (Some(yr), Some(yi)) = (yr.first_mut(), yi.first_mut()) {
+            let mut a = load_runs::<W, V, R>(&xr, &xi, 0);
+            B::run(&mut a);
+            for t in 0..R {
+                store(a[t], &mut yr[t], &mut yi[t]);
+            }
+        }
+        return;
+    }
     let tw = &tw[..row_len * (q - 1)];
     let mut yr_rest = &mut yr[..R * blk];
     let mut yi_rest = &mut yi[..R * blk];
-    let mut w = [[1.0f32, 0.0]; R];
     for p in 0..q {
         let (yr_p, t) = core::mem::take(&mut yr_rest).split_at_mut(R * s);
         yr_rest = t;
         let (yi_p, t) = core::mem::take(&mut yi_rest).split_at_mut(R * s);
         yi_rest = t;
-        let mut yr_t: [&mut [Lanes<L>]; R] = split_mut(yr_p, s);
-        let mut yi_t: [&mut [Lanes<L>]; R] = split_mut(yi_p, s);
+        let yr_t: [&mut [[f32; W]]; R] = split_mut(yr_p, s);
+        let yi_t: [&mut [[f32; W]]; R] = split_mut(yi_p, s);
         let at = p * s;
-        let xr_p: [&[Lanes<L>]; R] = core::array::from_fn(|r| &xr[r * blk + at..][..s]);
-        let xi_p: [&[Lanes<L>]; R] = core::array::from_fn(|r| &xi[r * blk + at..][..s]);
+        let xr_p: [&[[f32; W]]; R] = runs(&xr[at..], blk, s);
+        let xi_p: [&[[f32; W]]; R] = runs(&xi[at..], blk, s);
         if p == 0 {
             for k in 0..s {
-                kernel::<L, R, B, false>(&xr_p, &xi_p, &mut yr_t, &mut yi_t, &w, k);
+                let mut a = load_runs::<W, V, R>(&xr_p, &xi_p, k);
+                B::run(&mut a);
+                for t in 0..R {
+                    a[t].re.store(&mut yr_t[t][k]);
+                    a[t].im.store(&mut yi_t[t][k]);
+                }
             }
         } else {
-            let row = &tw[row_len * (p - 1)..][..row_len];
-            for t in 1..R {
-                w[t] = [row[2 * (t - 1)], row[2 * (t - 1) + 1]];
-            }
+            let w = row_twiddles::<V, R>(&tw[row_len * (p - 1)..][..row_len]);
             for k in 0..s {
-                kernel::<L, R, B, true>(&xr_p, &xi_p, &mut yr_t, &mut yi_t, &w, k);
+                let mut a = load_runs::<W, V, R>(&xr_p, &xi_p, k);
+                B::run(&mut a);
+                for t in 0..R {
+                    let v = if t == 0 { a[t] } else { a[t].mul(w[t]) };
+                    v.re.store(&mut yr_t[t][k]);
+                    v.im.store(&mut yi_t[t][k]);
+                }
             }
         }
     }
 }
 
-/// Generic body of the in-place last stage (`q = 1`) of a fixed radix `R`.
+/// The in-place last stage (`q = 1`) of a fixed radix `R`.
 #[inline(always)]
-fn last_fixed<const L: usize, const R: usize, B: Butterfly<R>>(
-    yr: &mut [Lanes<L>],
-    yi: &mut [Lanes<L>],
+fn last_fixed<const W: usize, V: Vector<W>, const R: usize, B: Butterfly<R>>(
+    y: &mut [[f32; W]],
+    n: usize,
     s: usize,
 ) {
-    let yr_t: [&mut [Lanes<L>]; R] = split_mut(&mut yr[..R * s], s);
-    let yi_t: [&mut [Lanes<L>]; R] = split_mut(&mut yi[..R * s], s);
+    let (yr, yi) = y.split_at_mut(n);
+    let yr_t: [&mut [[f32; W]]; R] = split_mut(&mut yr[..R * s], s);
+    let yi_t: [&mut [[f32; W]]; R] = split_mut(&mut yi[..R * s], s);
     for k in 0..s {
-        core::hint::black_box(k);
-        let mut a = [[[0.0f32; L]; 2]; R];
+        let mut a = [Cx::<V>::splat(0.0, 0.0); R];
         for r in 0..R {
-            a[r] = [yr_t[r][k], yi_t[r][k]];
+            a[r] = load(&yr_t[r][k], &yi_t[r][k]);
         }
         B::run(&mut a);
         for t in 0..R {
-            yr_t[t][k] = a[t][0];
-            yi_t[t][k] = a[t][1];
+            a[t].re.store(&mut yr_t[t][k]);
+            a[t].im.store(&mut yi_t[t][k]);
         }
     }
 }

@@ -1,10 +1,7 @@
-//! Radix-3 stage (`ω = e^(−2πi/3) = −½ − i·√3/2`).
+//! Radix-3 butterfly (`ω = e^(−2πi/3) = −½ − i·√3/2`).
 
-use super::{cadd, cadd_i, cscale, csub, csub_i, last_fixed, pass_fixed, Butterfly, C};
-
-use crate::transform::Lanes;
-
-const R: usize = 3;
+use super::{Butterfly, Cx};
+use crate::transform::simd::Arith;
 
 /// The radix-3 kernel.
 pub(super) struct Radix;
@@ -15,30 +12,16 @@ pub(super) const SIN_PI_3: f32 = 0.866_025_403_784_438_6_f64 as f32;
 impl Butterfly<3> for Radix {
     /// `t = a1 + a2`, `m = a0 − t/2`, `d = (√3/2)(a1 − a2)`, `b1,2 = m ∓ i·d`.
     #[inline(always)]
-    fn run<const L: usize>(a: &mut [C<L>; 3]) {
-        let t = cadd(a[1], a[2]);
-        let m = csub(a[0], cscale(t, 0.5));
-        let d = cscale(csub(a[1], a[2]), SIN_PI_3);
-        *a = [cadd(a[0], t), csub_i(m, d), cadd_i(m, d)];
+    fn run<V: Arith>(a: &mut [Cx<V>; 3]) {
+        *a = dft3(*a);
     }
 }
 
-/// Out-of-place stage (see [`super`] for the indexing).
-#[inline(never)]
-pub(super) fn pass<const L: usize>(
-    xr: &[Lanes<L>],
-    xi: &[Lanes<L>],
-    yr: &mut [Lanes<L>],
-    yi: &mut [Lanes<L>],
-    s: usize,
-    q: usize,
-    tw: &[f32],
-) {
-    pass_fixed::<L, R, Radix>(xr, xi, yr, yi, s, q, tw);
-}
-
-/// In-place last stage.
-#[inline(never)]
-pub(super) fn last<const L: usize>(yr: &mut [Lanes<L>], yi: &mut [Lanes<L>], s: usize) {
-    last_fixed::<L, R, Radix>(yr, yi, s);
+/// 3-point DFT with `ω = e^(−2πi/3)`.
+#[inline(always)]
+pub(super) fn dft3<V: Arith>(a: [Cx<V>; 3]) -> [Cx<V>; 3] {
+    let t = a[1].add(a[2]);
+    let m = a[0].sub(t.scale(V::splat(0.5)));
+    let d = a[1].sub(a[2]).scale(V::splat(SIN_PI_3));
+    [a[0].add(t), m.sub_i(d), m.add_i(d)]
 }

@@ -1,10 +1,7 @@
-//! Radix-5 stage: symmetric sums `a1 ± a4`, `a2 ± a3` times cos/sin of 2π/5 and 4π/5.
+//! Radix-5 butterfly: symmetric sums `a1 ± a4`, `a2 ± a3` times cos/sin of 2π/5 and 4π/5.
 
-use super::{cadd, cadd_i, cscale, csub, csub_i, last_fixed, pass_fixed, Butterfly, C};
-
-use crate::transform::Lanes;
-
-const R: usize = 5;
+use super::{Butterfly, Cx};
+use crate::transform::simd::Arith;
 
 /// The radix-5 kernel.
 pub(super) struct Radix;
@@ -18,42 +15,17 @@ pub(super) const S2: f32 = 0.587_785_252_292_473_1_f64 as f32;
 impl Butterfly<5> for Radix {
     /// `b_t = A_t ∓ i·B_t` with `A = a0 + c·s1 + c'·s2` (products first), `B = s·d1 ± s'·d2`.
     #[inline(always)]
-    fn run<const L: usize>(a: &mut [C<L>; 5]) {
-        let s1 = cadd(a[1], a[4]);
-        let s2 = cadd(a[2], a[3]);
-        let d1 = csub(a[1], a[4]);
-        let d2 = csub(a[2], a[3]);
-        let b0 = cadd(cadd(a[0], s1), s2);
-        let a1 = cadd(a[0], cadd(cscale(s1, C1), cscale(s2, C2)));
-        let a2 = cadd(a[0], cadd(cscale(s1, C2), cscale(s2, C1)));
-        let b1 = cadd(cscale(d1, S1), cscale(d2, S2));
-        let b2 = csub(cscale(d1, S2), cscale(d2, S1));
-        *a = [
-            b0,
-            csub_i(a1, b1),
-            csub_i(a2, b2),
-            cadd_i(a2, b2),
-            cadd_i(a1, b1),
-        ];
+    fn run<V: Arith>(a: &mut [Cx<V>; 5]) {
+        let (c1, c2, s1, s2) = (V::splat(C1), V::splat(C2), V::splat(S1), V::splat(S2));
+        let p1 = a[1].add(a[4]);
+        let p2 = a[2].add(a[3]);
+        let d1 = a[1].sub(a[4]);
+        let d2 = a[2].sub(a[3]);
+        let b0 = a[0].add(p1).add(p2);
+        let a1 = a[0].add(p1.scale(c1).add(p2.scale(c2)));
+        let a2 = a[0].add(p1.scale(c2).add(p2.scale(c1)));
+        let b1 = d1.scale(s1).add(d2.scale(s2));
+        let b2 = d1.scale(s2).sub(d2.scale(s1));
+        *a = [b0, a1.sub_i(b1), a2.sub_i(b2), a2.add_i(b2), a1.add_i(b1)];
     }
-}
-
-/// Out-of-place stage (see [`super`] for the indexing).
-#[inline(never)]
-pub(super) fn pass<const L: usize>(
-    xr: &[Lanes<L>],
-    xi: &[Lanes<L>],
-    yr: &mut [Lanes<L>],
-    yi: &mut [Lanes<L>],
-    s: usize,
-    q: usize,
-    tw: &[f32],
-) {
-    pass_fixed::<L, R, Radix>(xr, xi, yr, yi, s, q, tw);
-}
-
-/// In-place last stage.
-#[inline(never)]
-pub(super) fn last<const L: usize>(yr: &mut [Lanes<L>], yi: &mut [Lanes<L>], s: usize) {
-    last_fixed::<L, R, Radix>(yr, yi, s);
 }
