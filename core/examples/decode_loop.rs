@@ -5,6 +5,8 @@
 //! `cargo run --release -p fsm-core --example decode_loop -- bfsm|efsm1|efsm2[-fast][-shadow] [n]`
 //!
 //! `-fast`: the paper's local-maximum search without zero padding ([`ScanPlan::with_local_maxima`]).
+//! `-scalar` (last, e.g. `efsm1-scalar`): one lane at a time, as the camera decodes; the
+//! default is what `Decoder::decode_row` picks for this CPU.
 //!
 //! Three pixels in four are lit by one column pair (1200 + 600 DN), one in four also by a second
 //! column (500 DN) elsewhere: the interreflection case. With `-shadow` (e.g. `efsm1-shadow`)
@@ -18,6 +20,10 @@ fn main() {
     let (name, shadow) = match name.as_deref().map(|n| n.strip_suffix("-shadow")) {
         Some(Some(base)) => (Some(base), true),
         _ => (name.as_deref(), false),
+    };
+    let (name, scalar) = match name.map(|n| n.strip_suffix("-scalar")) {
+        Some(Some(base)) => (Some(base), true),
+        _ => (name, false),
     };
     let (name, fast) = match name.map(|n| n.strip_suffix("-fast")) {
         Some(Some(base)) => (Some(base), true),
@@ -65,9 +71,12 @@ fn main() {
     let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
     let mut out = vec![PixelCandidates::<16>::new(); width];
     for _ in 0..repeats {
-        decoder
-            .decode_row(&row, &mut scratch, &mut out)
-            .expect("row decodes");
+        if scalar {
+            decoder.decode_row_lanes::<1, 16>(&row, &mut scratch, &mut out)
+        } else {
+            decoder.decode_row(&row, &mut scratch, &mut out)
+        }
+        .expect("row decodes");
     }
     let candidates: usize = out.iter().map(|p| p.candidates.len()).sum();
     println!("{candidates} candidates in the last row");

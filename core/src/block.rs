@@ -12,7 +12,7 @@
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates};
 use crate::peak::PeakList;
 use crate::plan::sequence::Group;
-use crate::plan::{BlockCoding, PeakSearch, ScanPlan};
+use crate::plan::{BlockCoding, GroupFrames, PeakSearch, ScanPlan};
 
 /// Whether a local column passes the border guard `[cg, cB − cg]`.
 pub fn in_guard(local_column: f32, coding: &BlockCoding) -> bool {
@@ -113,20 +113,24 @@ impl<F: Fn(u16) -> u16> MaskLevels<F> {
 /// Returns whether the group's view is aliased ([`aliased`]).
 pub(crate) fn recover<F: Fn(u16) -> u16, const K: usize>(
     plan: &ScanPlan,
-    coding: &BlockCoding,
     group: Group,
+    frames: &GroupFrames,
     peaks: &PeakList,
     masks: &MaskLevels<F>,
     range: &ColumnRange,
     out: &mut PixelCandidates<K>,
 ) -> bool {
+    let Some(coding) = plan.block_coding() else {
+        return false;
+    };
+    let coding = &coding;
     let margin = masks.margin(plan);
     for mask in 0..masks.count {
         let excess = masks.excess(mask);
         if !(excess > margin && excess > 0.0) {
             continue;
         }
-        let blocks = plan.mask_blocks(group, mask);
+        let blocks = frames.mask_blocks(mask);
         for block in core::iter::once(blocks.first).chain(blocks.second) {
             for (rank, peak) in peaks.peaks.iter().enumerate() {
                 if !in_guard(peak.column, coding) {

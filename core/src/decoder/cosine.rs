@@ -72,15 +72,15 @@ impl References {
     }
 }
 
-/// Loads `z_0..=z_span` of `group` for the pixels `x0..x0 + refs.len()` into `profile`, lanes
+/// Loads `z_0..=z_span` of the group whose fringes start at frame `start`, for the pixels
+/// `x0..x0 + refs.len()`, into `profile`, lanes
 /// past them zero, `L/W` chunks of the vector type `V` at a time; returns the lanes (bit `l`)
 /// that saturated a fringe sample.
 #[inline(always)]
 fn load_with<const L: usize, const W: usize, V: Vector<W>>(
-    plan: &ScanPlan,
     row: &Row<'_>,
     x0: usize,
-    group: Group,
+    start: usize,
     refs: &[References],
     profile: &mut [Lanes<L>],
 ) -> u32 {
@@ -91,7 +91,6 @@ fn load_with<const L: usize, const W: usize, V: Vector<W>>(
         zero[l] = r.zero_term;
     }
     profile[0] = zero;
-    let start = plan.fringe_start(group);
     let w = row.width;
     // Codes are integers: a lane's largest code reaches the saturation code exactly when it
     // is above half a code below it.
@@ -155,10 +154,9 @@ impl RowState {
 /// transform, the lit columns.
 pub(super) trait Path<const L: usize> {
     fn load(
-        plan: &ScanPlan,
         row: &Row<'_>,
         x0: usize,
-        group: Group,
+        start: usize,
         refs: &[References],
         profile: &mut [Lanes<L>],
     ) -> u32;
@@ -176,14 +174,13 @@ macro_rules! path_with {
     ($w:literal, $v:ty) => {
         #[inline(always)]
         fn load(
-            plan: &ScanPlan,
             row: &Row<'_>,
             x0: usize,
-            group: Group,
+            start: usize,
             refs: &[References],
             profile: &mut [Lanes<$w>],
         ) -> u32 {
-            load_with::<$w, $w, $v>(plan, row, x0, group, refs, profile)
+            load_with::<$w, $w, $v>(row, x0, start, refs, profile)
         }
         #[inline(always)]
         fn find_lit(search: &mut Search, profile: &[Lanes<$w>], thresholds: &[f32; $w]) {
@@ -198,20 +195,17 @@ pub(super) struct Portable;
 impl<const L: usize> Path<L> for Portable {
     #[inline(always)]
     fn load(
-        plan: &ScanPlan,
         row: &Row<'_>,
         x0: usize,
-        group: Group,
+        start: usize,
         refs: &[References],
         profile: &mut [Lanes<L>],
     ) -> u32 {
         #[cfg(target_arch = "x86_64")]
         if L.is_multiple_of(4) {
-            return load_with::<L, 4, crate::transform::simd::F4>(
-                plan, row, x0, group, refs, profile,
-            );
+            return load_with::<L, 4, crate::transform::simd::F4>(row, x0, start, refs, profile);
         }
-        load_with::<L, 1, f32>(plan, row, x0, group, refs, profile)
+        load_with::<L, 1, f32>(row, x0, start, refs, profile)
     }
     #[inline(always)]
     fn inverse(
@@ -234,8 +228,8 @@ impl<const L: usize> Path<L> for Portable {
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::{
-        decode_row, load_with, Decoder, Group, Path, PixelCandidates, References, Row, ScanPlan,
-        Search, TransformError,
+        decode_row, load_with, Decoder, Path, PixelCandidates, References, Row, Search,
+        TransformError,
     };
     use crate::transform::simd::{F16, F8};
     use crate::transform::{CosineTransform, Lanes};
@@ -363,7 +357,8 @@ pub(super) fn decode_pixels<const L: usize, const K: usize, P: Path<L>>(
     }
     let mut troubled = [true; L];
     for group in plan.groups() {
-        let saturated = P::load(plan, row, x0, group, &refs[..lanes], profile);
+        let start = decoder.frames[group.index()].fringe_start;
+        let saturated = P::load(row, x0, start, &refs[..lanes], profile);
         // The scratch was sized for this transform: it cannot refuse it.
         if P::inverse(transform, profile, work).is_err() {
             return;
@@ -400,7 +395,8 @@ pub(super) fn profile<'s>(
     let span = transform.span();
     let (profile, work, _) = split::<1>(scratch, span);
     let refs = [References::of(&decoder.plan, row, x)];
-    Portable::load(&decoder.plan, row, x, group, &refs, profile);
+    let start = decoder.frames[group.index()].fringe_start;
+    Portable::load(row, x, start, &refs, profile);
     if transform.inverse::<1>(profile, work).is_err() {
         return &[];
     }
@@ -420,7 +416,8 @@ pub(super) fn lights(
     let span = transform.span();
     let (profile, work, background) = split::<1>(scratch, span);
     let refs = [References::of(&decoder.plan, row, x)];
-    Portable::load(&decoder.plan, row, x, group, &refs, profile);
+    let start = decoder.frames[group.index()].fringe_start;
+    Portable::load(row, x, start, &refs, profile);
     out.peaks.clear();
     if transform.inverse::<1>(profile, work).is_ok() {
         let noise = profile_noise_dn(refs[0].sample_noise_dn, span as u16);

@@ -26,7 +26,7 @@ use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelF
 use crate::peak::deconvolution::FitTable;
 use crate::peak::PeakList;
 use crate::plan::sequence::Group;
-use crate::plan::{Method, PeakSearch, PlanError, ScanPlan, Window};
+use crate::plan::{GroupFrames, Method, PeakSearch, PlanError, ScanPlan, Window};
 use crate::transform::isa::Isa;
 use crate::transform::kernel::{self, Kernel};
 use crate::transform::spectrum::Spectrum;
@@ -145,6 +145,8 @@ pub struct Decoder<'t> {
     tables: Tables<'t>,
     /// The vector instructions this CPU runs ([`Decoder::decode_row`] picks its lanes by it).
     isa: Isa,
+    /// Each group's frames ([`ScanPlan::group_frames`]).
+    frames: [GroupFrames; 2],
 }
 
 /// The tables of the plan's search.
@@ -248,6 +250,7 @@ impl<'t> Decoder<'t> {
                 plan: *plan,
                 tables: Tables::Cosine(transform),
                 isa: Isa::detect(),
+                frames: group_frames(plan),
             });
         }
         let too_short = DecoderError::TablesTooShort {
@@ -277,6 +280,7 @@ impl<'t> Decoder<'t> {
                 bin_to_sample_noise: (sum / libm::sqrt(sum_sq)) as f32,
             }),
             isa: Isa::detect(),
+            frames: group_frames(plan),
         })
     }
 
@@ -557,13 +561,14 @@ impl<'t> Decoder<'t> {
                 }
                 peaks.unresolved
             }
-            Method::Efsm(coding) => {
-                let start = plan.mask_start(group);
+            Method::Efsm(_) => {
+                let frames = &self.frames[group.index()];
+                let start = frames.mask_start;
                 // EFSM plans always carry a dark frame (validated).
                 let dark = plan.dark_index().map_or(0, sample);
                 let masks = MaskLevels::new(
                     |i: u16| sample(start + i as usize),
-                    plan.mask_count(group),
+                    frames.mask_count,
                     dark,
                     noise_dn,
                 );
@@ -571,7 +576,7 @@ impl<'t> Decoder<'t> {
                 if masks.saturated(saturation) || dark >= saturation {
                     out.flags.insert(PixelFlags::SATURATED);
                 }
-                block::recover(plan, &coding, group, peaks, &masks, &range, out)
+                block::recover(plan, group, frames, peaks, &masks, &range, out)
             }
         }
     }
@@ -587,6 +592,15 @@ impl<'t> Decoder<'t> {
         }
         out.sort();
     }
+}
+
+/// Both groups' frames (group 2's are group 1's where the plan has one group).
+fn group_frames(plan: &ScanPlan) -> [GroupFrames; 2] {
+    let one = plan.group_frames(Group::One);
+    [
+        one,
+        plan.groups().nth(1).map_or(one, |g| plan.group_frames(g)),
+    ]
 }
 
 /// `L/2`, the span of the inverse cosine transform, for a plan decoded by the cosine search.

@@ -26,7 +26,7 @@ pub(super) fn load(
     group: Group,
     scratch: &mut [f32],
 ) -> bool {
-    let start = plan.fringe_start(group);
+    let start = plan.group_frames(group).fringe_start;
     let w = row.width;
     // Frame `start + m` at pixel `x`, every `w` samples (the row's length is checked).
     let stats = spectrum::compute(

@@ -818,16 +818,18 @@ impl ScanPlan {
 
     /// The blocks mask `mask` of `group` lights: one block, or two for a shared edge mask.
     pub fn mask_blocks(&self, group: Group, mask: u16) -> MaskBlocks {
-        if mask == 0 && self.shares_edge_mask(group) {
-            MaskBlocks {
-                first: 0,
-                second: Some(self.block_count(group) - 1),
-            }
-        } else {
-            MaskBlocks {
-                first: mask,
-                second: None,
-            }
+        self.group_frames(group).mask_blocks(mask)
+    }
+
+    /// Where `group`'s frames are in the sequence and what its masks light, worked out once:
+    /// the decoder reads them at every pixel, and the camera's core divides in software.
+    pub fn group_frames(&self, group: Group) -> GroupFrames {
+        GroupFrames {
+            fringe_start: self.fringe_start(group),
+            mask_start: self.mask_start(group),
+            mask_count: self.mask_count(group),
+            last_block: self.block_count(group).saturating_sub(1),
+            shares_edge_mask: self.shares_edge_mask(group),
         }
     }
 
@@ -852,6 +854,33 @@ impl ScanPlan {
             Method::Efsm(b) => {
                 local_column + block as f32 * b.block_width as f32 - self.group_shift(group) as f32
             }
+        }
+    }
+}
+
+/// Where one group's frames are in the sequence and what its masks light
+/// ([`ScanPlan::group_frames`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GroupFrames {
+    /// Frame index of fringe 0.
+    pub fringe_start: usize,
+    /// Frame index of mask 0.
+    pub mask_start: usize,
+    /// Mask patterns of the group.
+    pub mask_count: u16,
+    /// `NB_g − 1`, the group's last block (0 for BFSM).
+    pub last_block: u16,
+    /// Whether mask 0 also lights the last block ([`ScanPlan::shares_edge_mask`]).
+    pub shares_edge_mask: bool,
+}
+
+impl GroupFrames {
+    /// The blocks mask `mask` lights: one block, or two for a shared edge mask.
+    pub fn mask_blocks(&self, mask: u16) -> MaskBlocks {
+        MaskBlocks {
+            first: mask,
+            second: (mask == 0 && self.shares_edge_mask).then_some(self.last_block),
         }
     }
 }
