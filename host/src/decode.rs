@@ -165,7 +165,6 @@ pub fn decode_batches(
     let bit_depth = batches.bit_depth();
     let row_len = batches.row_len();
     let header = candidate_header(plan, width, height);
-    let chunk_rows = 4 * pool.current_num_threads();
     let mut summary = DecodeSummary {
         width,
         height,
@@ -175,58 +174,67 @@ pub fn decode_batches(
     let mut pending: BTreeMap<u32, DecodedRow> = BTreeMap::new();
     let mut next_row = 0u32;
     progress.start(height as u64, "decoding rows");
-    // Decodes one batch, chunk by chunk, and hands every row now due to the sink.
-    let mut process = |batch: &RowBatch| -> Result<()> {
-        for (rows, samples) in batch
+    // Decodes one batch, its rows in parallel.
+    let decode_batch = |batch: &RowBatch| -> Result<Vec<DecodedRow>> {
+        batch
             .rows
-            .chunks(chunk_rows)
-            .zip(batch.samples.chunks(chunk_rows * row_len))
-        {
-            let decoded: Vec<DecodedRow> = pool.install(|| {
-                rows.par_iter()
-                    .zip(samples.par_chunks(row_len))
-                    .map_init(
-                        || {
-                            (
-                                vec![0.0f32; Decoder::scratch_len(plan)],
-                                vec![HostCandidates::new(); width as usize],
-                            )
-                        },
-                        |(scratch, pixels), (&row, frames)| {
-                            decode_row(&decoder, &header, row, frames, bit_depth, scratch, pixels)
-                        },
+            .par_iter()
+            .zip(batch.samples.par_chunks(row_len))
+            .map_init(
+                || {
+                    (
+                        vec![0.0f32; Decoder::scratch_len(plan)],
+                        vec![HostCandidates::new(); width as usize],
                     )
-                    .collect::<Result<_>>()
-            })?;
-            progress.advance(decoded.len() as u64);
-            for d in decoded {
-                pending.insert(d.row, d);
-            }
-            while let Some(d) = pending.remove(&next_row) {
-                summary.lit_pixels += d.lit_pixels as u64;
-                summary.candidates += d.candidates as u64;
-                summary.saturated_pixels += d.saturated_pixels as u64;
-                summary.truncated_pixels += d.truncated_pixels as u64;
-                summary.aliased_pixels += d.aliased_pixels as u64;
-                summary.unresolved_pixels += d.unresolved_pixels as u64;
-                sink(d)?;
-                next_row += 1;
-            }
+                },
+                |(scratch, pixels), (&row, frames)| {
+                    decode_row(&decoder, &header, row, frames, bit_depth, scratch, pixels)
+                },
+            )
+            .collect()
+    };
+    // Hands every decoded row now due to the sink.
+    let mut deliver = |decoded: Vec<DecodedRow>| -> Result<()> {
+        progress.advance(decoded.len() as u64);
+        for d in decoded {
+            pending.insert(d.row, d);
+        }
+        while let Some(d) = pending.remove(&next_row) {
+            summary.lit_pixels += d.lit_pixels as u64;
+            summary.candidates += d.candidates as u64;
+            summary.saturated_pixels += d.saturated_pixels as u64;
+            summary.truncated_pixels += d.truncated_pixels as u64;
+            summary.aliased_pixels += d.aliased_pixels as u64;
+            summary.unresolved_pixels += d.unresolved_pixels as u64;
+            sink(d)?;
+            next_row += 1;
         }
         Ok(())
     };
+    let mut batch = RowBatch::default();
     match batches {
         // Stack bands are read frame-parallel on the pool, then decoded row-parallel: both
         // phases use every thread, so alternating them costs nothing and holds one band.
         RowBatches::Stack { .. } => {
-            let mut batch = RowBatch::default();
             while pool.install(|| batches.next_batch(&mut batch))? {
-                process(&batch)?;
+                deliver(pool.install(|| decode_batch(&batch))?)?;
             }
         }
-        // Dump records are read and CRC-checked one after the other: a reader thread fills
-        // the next batch while this one decodes (two batches in all).
-        RowBatches::Dump { .. } => read_ahead(batches, &mut process)?,
+        // Dump records are read and CRC-checked one after the other: the next batch is read
+        // as one more task of the pool while the rows of this one decode (two batches in all,
+        // and no thread beyond the pool's to share the cores with).
+        RowBatches::Dump { .. } => {
+            let mut next = RowBatch::default();
+            let mut more = batches.next_batch(&mut batch)?;
+            while more {
+                let (decoded, read) = pool.install(|| {
+                    rayon::join(|| decode_batch(&batch), || batches.next_batch(&mut next))
+                });
+                deliver(decoded?)?;
+                more = read?;
+                std::mem::swap(&mut batch, &mut next);
+            }
+        }
     }
     progress.finish();
     if next_row != height {
@@ -236,46 +244,6 @@ pub fn decode_batches(
     }
     summary.seconds = started.elapsed().as_secs_f64();
     Ok(summary)
-}
-
-/// Runs `process` on every batch of `batches`, reading the next batch on another thread
-/// meanwhile; two batch buffers circulate between the threads.
-fn read_ahead(
-    batches: &mut RowBatches<'_>,
-    process: &mut dyn FnMut(&RowBatch) -> Result<()>,
-) -> Result<()> {
-    std::thread::scope(|scope| {
-        let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<Result<Option<RowBatch>>>(1);
-        let (free_tx, free_rx) = std::sync::mpsc::channel::<RowBatch>();
-        for _ in 0..2 {
-            free_tx.send(RowBatch::default()).expect("receiver alive");
-        }
-        scope.spawn(move || {
-            while let Ok(mut batch) = free_rx.recv() {
-                let next = match batches.next_batch(&mut batch) {
-                    Ok(true) => Ok(Some(batch)),
-                    Ok(false) => Ok(None),
-                    Err(e) => Err(e),
-                };
-                let last = !matches!(next, Ok(Some(_)));
-                if full_tx.send(next).is_err() || last {
-                    return;
-                }
-            }
-        });
-        loop {
-            match full_rx.recv() {
-                Ok(Ok(Some(batch))) => {
-                    process(&batch)?;
-                    // The reader may have stopped after an error it already sent.
-                    let _ = free_tx.send(batch);
-                }
-                Ok(Ok(None)) => return Ok(()),
-                Ok(Err(e)) => return Err(e),
-                Err(_) => return Err(Error::Usage("the row reader stopped unexpectedly".into())),
-            }
-        }
-    })
 }
 
 fn decode_row(

@@ -146,14 +146,17 @@ impl DumpError {
     }
 }
 
-/// Reads a dump record by record; holds one record's bytes and a bit per row.
+/// Reads a dump record by record, each record's samples straight into the caller's buffer;
+/// holds a record number per row.
 pub struct DumpReader<R> {
     path: PathBuf,
     reader: R,
     header: RowDumpHeader,
     record_len: usize,
     record: u32,
-    bytes: Vec<u8>,
+    /// The row index and CRC of the record being read.
+    row_bytes: [u8; 4],
+    crc_bytes: [u8; 4],
     /// Record number that delivered each row read so far (grows with the records actually
     /// present, never with what a header claims).
     seen: HashMap<u32, u32>,
@@ -244,7 +247,8 @@ impl<R: Read> DumpReader<R> {
             header,
             record_len,
             record: 0,
-            bytes: Vec::new(),
+            row_bytes: [0; 4],
+            crc_bytes: [0; 4],
             seen: HashMap::new(),
         })
     }
@@ -260,7 +264,8 @@ impl<R: Read> DumpReader<R> {
             header: self.header,
             record_len: self.record_len,
             record: self.record,
-            bytes: self.bytes,
+            row_bytes: self.row_bytes,
+            crc_bytes: self.crc_bytes,
             seen: self.seen,
         }
     }
@@ -329,30 +334,50 @@ impl<R: Read> DumpReader<R> {
             }
             return Ok(None);
         }
-        self.bytes.clear();
-        let got = read_up_to(&mut self.reader, self.record_len, &mut self.bytes)
-            .map_err(|e| io(&self.path, e))?;
+        // The samples are read straight to where they are decoded: the row index, then the
+        // samples into `samples` (grown with the bytes read: a damaged header could claim any
+        // length), then the CRC, checked over them in place.
+        let start = samples.len();
+        let read = self.read_record_into(samples).map_err(|e| io(&self.path, e));
+        let got = match read {
+            Ok(got) => got,
+            Err(e) => {
+                samples.truncate(start);
+                return Err(e);
+            }
+        };
         if got < self.record_len {
+            samples.truncate(start);
             return Err(DumpError::Truncated {
                 path: self.path.clone(),
                 record: self.record,
                 offset,
-                row: (got >= 4)
-                    .then(|| u32::from_le_bytes(self.bytes[..4].try_into().expect("4 bytes"))),
+                row: (got >= 4).then(|| u32::from_le_bytes(self.row_bytes)),
                 got,
                 needed: self.record_len,
                 height: self.header.height,
             });
         }
-        let record =
-            row_dump::decode_record(&self.header, &self.bytes).map_err(|e| DumpError::Record {
-                path: self.path.clone(),
-                record: self.record,
-                offset,
-                source: Wire(e),
-            })?;
-        let row = record.row;
+        let checked = row_dump::check_record_parts(
+            &self.header,
+            &self.row_bytes,
+            bytemuck::cast_slice(&samples[start..]),
+            &self.crc_bytes,
+        );
+        let row = match checked {
+            Ok(row) => row,
+            Err(e) => {
+                samples.truncate(start);
+                return Err(DumpError::Record {
+                    path: self.path.clone(),
+                    record: self.record,
+                    offset,
+                    source: Wire(e),
+                });
+            }
+        };
         if let Some(&first) = self.seen.get(&row) {
+            samples.truncate(start);
             return Err(DumpError::DuplicateRow {
                 path: self.path.clone(),
                 row,
@@ -361,19 +386,37 @@ impl<R: Read> DumpReader<R> {
             });
         }
         self.seen.insert(row, self.record);
-        // Grown only now that the record's bytes are here and verified.
-        let start = samples.len();
-        samples.resize(start + record.len(), 0);
-        record
-            .copy_to(&mut samples[start..])
-            .map_err(|e| DumpError::Record {
-                path: self.path.clone(),
-                record: self.record,
-                offset,
-                source: Wire(e),
-            })?;
+        // The samples are little-endian codes (nothing to do on a little-endian host).
+        for s in &mut samples[start..] {
+            *s = u16::from_le(*s);
+        }
         self.record += 1;
         Ok(Some(row))
+    }
+
+    /// Reads one record's row index, samples (appended to `samples`, as raw bytes) and CRC;
+    /// returns the bytes read (fewer than a record where the input ends).
+    fn read_record_into(&mut self, samples: &mut Vec<u16>) -> std::io::Result<usize> {
+        const STEP: usize = 1 << 19;
+        let mut got = read_full(&mut self.reader, &mut self.row_bytes)?;
+        if got < 4 {
+            return Ok(got);
+        }
+        let (start, n) = (samples.len(), self.header.samples_per_row());
+        while samples.len() - start < n {
+            let filled = samples.len() - start;
+            let step = (n - filled).min(STEP.max(filled));
+            samples.resize(start + filled + step, 0);
+            let part = read_full(
+                &mut self.reader,
+                bytemuck::cast_slice_mut(&mut samples[start + filled..]),
+            )?;
+            got += part;
+            if part < 2 * step {
+                return Ok(got);
+            }
+        }
+        Ok(got + read_full(&mut self.reader, &mut self.crc_bytes)?)
     }
 
     /// Reads records until the one of row `row`; its samples replace the content of `samples`.

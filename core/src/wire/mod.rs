@@ -32,6 +32,15 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     crc32fast::hash(bytes)
 }
 
+/// [`crc32`] of `parts` one after the other.
+pub fn crc32_parts(parts: &[&[u8]]) -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    for p in parts {
+        h.update(p);
+    }
+    h.finalize()
+}
+
 /// CRC-64 (XZ) of `bytes`: plan fingerprints.
 pub fn crc64(bytes: &[u8]) -> u64 {
     CRC64.checksum(bytes)

@@ -27,7 +27,7 @@
 //! | 4 | `[u16; W·M]` | samples, sample-major: frame `i`, pixel `x` at `i·W + x` (the line decoder's input) |
 //! | 4 + 2·W·M | u32 | CRC-32 of the row index and the samples |
 
-use super::{begin_header, crc32, open_header, seal_header, Reader, WireError, Writer, HEADER_LEN};
+use super::{begin_header, crc32, crc32_parts, open_header, seal_header, WireError, Writer, HEADER_LEN};
 use crate::plan::ScanPlan;
 
 /// Magic bytes of a row dump.
@@ -169,6 +169,13 @@ impl RowRecord<'_> {
         u16::from_le_bytes([self.samples[2 * i], self.samples[2 * i + 1]])
     }
 
+    /// The samples in order (for appending them where they go, without clearing it first).
+    pub fn codes(&self) -> impl ExactSizeIterator<Item = u16> + '_ {
+        self.samples
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+    }
+
     /// Copies the samples into `out` (length [`RowRecord::len`]).
     pub fn copy_to(&self, out: &mut [u16]) -> Result<(), WireError> {
         if out.len() != self.len() {
@@ -244,14 +251,36 @@ pub fn decode_record<'a>(
             got: bytes.len(),
         });
     }
-    let row = Reader::new(bytes).u32();
-    let stored = u32::from_le_bytes([
-        bytes[len - 4],
-        bytes[len - 3],
-        bytes[len - 2],
-        bytes[len - 1],
-    ]);
-    let computed = crc32(&bytes[..len - 4]);
+    let (row, rest) = bytes[..len].split_at(4);
+    let (samples, crc) = rest.split_at(len - 8);
+    let row = check_record_parts(header, row, samples, crc)?;
+    Ok(RowRecord { row, samples })
+}
+
+/// Checks a record read in its three parts (so that its samples can be read straight to
+/// where they are decoded): the row index's 4 bytes, the `2·W·M` bytes of the samples and the
+/// CRC's 4 bytes. Checks lengths, CRC and row range; returns the row.
+pub fn check_record_parts(
+    header: &RowDumpHeader,
+    row: &[u8],
+    samples: &[u8],
+    crc: &[u8],
+) -> Result<u32, WireError> {
+    let needed = 2 * header.samples_per_row();
+    let (Ok(row_bytes), Ok(crc), true) = (
+        <[u8; 4]>::try_from(row),
+        <[u8; 4]>::try_from(crc),
+        samples.len() == needed,
+    ) else {
+        return Err(WireError::Truncated {
+            what: WHAT,
+            needed: needed + 8,
+            got: row.len() + samples.len() + crc.len(),
+        });
+    };
+    let row = u32::from_le_bytes(row_bytes);
+    let stored = u32::from_le_bytes(crc);
+    let computed = crc32_parts(&[&row_bytes, samples]);
     if stored != computed {
         return Err(WireError::RecordCrc {
             what: WHAT,
@@ -267,8 +296,5 @@ pub fn decode_record<'a>(
             height: header.height,
         });
     }
-    Ok(RowRecord {
-        row,
-        samples: &bytes[4..len - 4],
-    })
+    Ok(row)
 }
