@@ -338,7 +338,9 @@ impl<R: Read> DumpReader<R> {
         // samples into `samples` (grown with the bytes read: a damaged header could claim any
         // length), then the CRC, checked over them in place.
         let start = samples.len();
-        let read = self.read_record_into(samples).map_err(|e| io(&self.path, e));
+        let read = self
+            .read_record_into(samples)
+            .map_err(|e| io(&self.path, e));
         let got = match read {
             Ok(got) => got,
             Err(e) => {

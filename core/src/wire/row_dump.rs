@@ -27,7 +27,9 @@
 //! | 4 | `[u16; W·M]` | samples, sample-major: frame `i`, pixel `x` at `i·W + x` (the line decoder's input) |
 //! | 4 + 2·W·M | u32 | CRC-32 of the row index and the samples |
 
-use super::{begin_header, crc32, crc32_parts, open_header, seal_header, WireError, Writer, HEADER_LEN};
+use super::{
+    begin_header, crc32, crc32_parts, open_header, seal_header, WireError, Writer, HEADER_LEN,
+};
 use crate::plan::ScanPlan;
 
 /// Magic bytes of a row dump.

@@ -21,8 +21,8 @@ use serde::Serialize;
 
 use super::simulate::parse_size;
 
-/// Run the paper's comparison on a simulated scene: BFSM, EFSM and phase shift, with and
-/// without a mirror's interreflection.
+/// Run the paper's comparison on simulated scenes: BFSM, EFSM and phase shift, with and
+/// without a mirror's interreflection, and under glossy interreflection.
 ///
 /// The bench scanner looks at a diffuse plane beside a planar mirror (`plane_mirror`): the
 /// plane receives the projector's light directly and through the mirror. The same scene with
@@ -31,7 +31,10 @@ use super::simulate::parse_size;
 /// patterns) and the EFSM patterns decoded by the local-maximum search (`EFSM-fast`, the
 /// camera's fast decoder), each through the same decode → triangulate → select path, and
 /// compared with the simulator's ground truth and with each other (paper Fig. 9: Ed, EnoI,
-/// EwiI).
+/// EwiI). BFSM and EFSM are also decoded by CLEAN (`-CLEAN`, the DFT search the cosine search
+/// replaced). Every method also scans `vgroove_glossy` (two rough-metal facets whose light
+/// reflected facet to facet outshines the direct light): how often the direct column is
+/// among the candidates and the selected point is right.
 ///
 /// Writes into the output folder:
 ///   report.md, report.json     the figures per method, with pictures
@@ -68,7 +71,22 @@ struct MethodReport {
     e_d_percent_of_standoff: f64,
     e_no_i_percent_of_standoff: f64,
     e_wi_i_percent_of_standoff: f64,
+    glossy: GlossyFigures,
     seconds: f64,
+}
+
+/// A method on `vgroove_glossy`: rough metal, its direct light under a lobe about 13 times as
+/// bright, spread over tens of columns.
+#[derive(Serialize, Clone, Copy)]
+struct GlossyFigures {
+    /// Facet pixels (lit directly, away from edges).
+    pixels: usize,
+    /// Of them, with the direct column among the decoder's candidates (within 0.5 column).
+    direct_among_candidates: f64,
+    /// With a point after the selection.
+    completeness: f64,
+    /// Of the points, whose column is within 0.5 column of the direct one.
+    points_within_half_column: f64,
 }
 
 #[derive(Serialize)]
@@ -132,7 +150,9 @@ pub fn run(args: Args) -> Result<()> {
     let staged = StagedDir::create(&args.out, args.force)?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     let (w, h) = (system.width() as usize, system.height() as usize);
-    eprintln!("fsm demo: simulating plane_mirror and plane_mirror_covered ({w}x{h} camera)…");
+    eprintln!(
+        "fsm demo: simulating plane_mirror, plane_mirror_covered and vgroove_glossy ({w}x{h} camera)…"
+    );
     let transports: Vec<Arc<LightTransport>> = ["plane_mirror", "plane_mirror_covered"]
         .iter()
         .map(|name| {
@@ -142,15 +162,33 @@ pub fn run(args: Args) -> Result<()> {
                 .map_err(sim_error)
         })
         .collect::<Result<_>>()?;
+    let glossy_transport = {
+        let scene = Scene::by_name("vgroove_glossy").map_err(sim_error)?;
+        LightTransport::compute(&scene, &system, &TransportSettings::default())
+            .map(Arc::new)
+            .map_err(sim_error)?
+    };
+    // The FSM plans state the simulated camera's sensor, as a user states theirs.
+    let fsm = |mut plan: ScanPlan| {
+        plan.decoding.sensor = Sensor::default().datasheet();
+        Plan::Fsm(plan)
+    };
     let methods = [
-        ("BFSM", Plan::Fsm(ScanPlan::paper_bfsm())),
-        ("EFSM", Plan::Fsm(ScanPlan::paper_efsm(GroupCount::Two))),
+        ("BFSM", fsm(ScanPlan::paper_bfsm())),
+        ("EFSM", fsm(ScanPlan::paper_efsm(GroupCount::Two))),
+        // The same patterns decoded by CLEAN on the zero-padded DFT, as before the cosine
+        // search.
+        ("BFSM-CLEAN", fsm(ScanPlan::paper_bfsm().with_clean())),
+        (
+            "EFSM-CLEAN",
+            fsm(ScanPlan::paper_efsm(GroupCount::Two).with_clean()),
+        ),
         ("PS", Plan::PhaseShift(PhaseShiftPlan::paper())),
         // The same EFSM patterns decoded as a camera can at frame rate (the paper's
         // local-maximum search): what that costs in accuracy.
         (
             "EFSM-fast",
-            Plan::Fsm(ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima()),
+            fsm(ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima()),
         ),
     ];
     let params = SelectionParams::for_calibration(&system.calibration);
@@ -247,6 +285,7 @@ pub fn run(args: Args) -> Result<()> {
             &surfaces[0],
             &direct_column,
         )?;
+        let glossy = glossy_figures(plan, &glossy_transport, &system, &params, args.seed)?;
         let seconds = started.elapsed().as_secs_f64();
         eprintln!(
             "  {name}: {:.2}% of interreflection pixels within 0.5 column, Ed {:.4} mm, EnoI {:.4} mm, EwiI {:.4} mm ({seconds:.1} s)",
@@ -262,6 +301,7 @@ pub fn run(args: Args) -> Result<()> {
             e_d_percent_of_standoff: 100.0 * figures.e_d_mm / STANDOFF_MM,
             e_no_i_percent_of_standoff: 100.0 * figures.e_no_i_mm / STANDOFF_MM,
             e_wi_i_percent_of_standoff: 100.0 * figures.e_wi_i_mm / STANDOFF_MM,
+            glossy,
             seconds,
         });
     }
@@ -295,6 +335,52 @@ pub fn run(args: Args) -> Result<()> {
     let out = staged.commit()?;
     eprintln!("fsm demo: report in {}", out.join("report.md").display());
     Ok(())
+}
+
+/// Scans `vgroove_glossy` with `plan` and scores it against the truth.
+fn glossy_figures(
+    plan: &Plan,
+    transport: &Arc<LightTransport>,
+    system: &System,
+    params: &SelectionParams,
+    seed: u64,
+) -> Result<GlossyFigures> {
+    let (w, h) = (system.width() as usize, system.height() as usize);
+    let capture = plan.capture(transport.clone(), system, seed)?;
+    let limits = |y: usize| column_limits(&system.calibration, w, y);
+    let decoded = DecodedImage::decode_rows(
+        plan.method(),
+        w,
+        0..h,
+        capture.bit_depth(),
+        Some(&limits),
+        |y| capture.row(y as u32).map_err(sim_error),
+    )?;
+    let (surface, _) = Surface::reconstruct(&decoded, &system.calibration, params);
+    let (mut pixels, mut among, mut points, mut right) = (0usize, 0usize, 0usize, 0usize);
+    for (i, p) in decoded.pixels.iter().enumerate() {
+        let t = capture
+            .ground_truth()
+            .pixel((i % w) as u32, (i / w) as u32)
+            .expect("a rendered pixel");
+        if t.class != SurfaceClass::Glossy || t.edge || !t.direct_column.is_finite() {
+            continue;
+        }
+        pixels += 1;
+        let near = |c: f32| (c as f64 - t.direct_column).abs() <= 0.5;
+        among += p.candidates.iter().any(|c| near(c.column)) as usize;
+        if let Some(c) = surface.column[i] {
+            points += 1;
+            right += near(c) as usize;
+        }
+    }
+    let share = |a: usize, b: usize| a as f64 / b.max(1) as f64;
+    Ok(GlossyFigures {
+        pixels,
+        direct_among_candidates: share(among, pixels),
+        completeness: share(points, pixels),
+        points_within_half_column: share(right, points),
+    })
 }
 
 /// `|decoded − true column|` per pixel, viridis from 0 to 1 column, black where either is
@@ -340,9 +426,12 @@ fn markdown(report: &Report) -> String {
          The scene `plane_mirror` is a diffuse plane beside a planar mirror: {} camera pixels receive more than 20% \
          of their light through the mirror (white in `interreflection.png`). `plane_mirror_covered` is the same \
          scene with the mirror blackened. Every method goes through the same path: decode, triangulate every \
-         candidate, select the direct one semi-globally. Where a pixel's direct and mirrored columns fall within \
-         2Δc of each other modulo the block width, EFSM cannot separate them (paper §IV-C): the decoder flags the \
-         pixel aliased and it gets no point, which the completeness column shows.\n\n",
+         candidate, select the direct one semi-globally. BFSM and EFSM decode with the cosine search (the exact \
+         inverse of their full band); `-CLEAN` rows decode the same captures with CLEAN on the zero-padded DFT, \
+         `EFSM-fast` with the paper's local maxima. Where a pixel's direct and mirrored columns fall within one \
+         footprint of each other modulo the block width (2Δc for the DFT searches), EFSM cannot separate them \
+         (paper §IV-C): the decoder flags the pixel aliased and it gets no point, which the completeness column \
+         shows.\n\n",
         report.standoff_mm, report.camera[0], report.camera[1], report.seed, report.interreflection_pixels
     ));
     md.push_str("| method | patterns | interreflection pixels within 0.5 column | column RMS there (covered) | Ed mm (% standoff) | EnoI mm | EwiI mm | completeness |\n");
@@ -368,7 +457,24 @@ fn markdown(report: &Report) -> String {
          distance to a fitted plane without and with the mirror (paper Fig. 9). Column RMS: of the pixels within \
          0.5 column of the truth.\n\n",
     );
-    md.push_str("| method | depth with the mirror | direct light | indirect light | column error (0–1 column) |\n|---|---|---|---|---|\n");
+    md.push_str(
+        "\n## Glossy interreflection: `vgroove_glossy`\n\nTwo rough-metal facets (GGX, roughness 0.2) in a V: the \
+         light reflected facet to facet is about 13 times the direct light at the median pixel and spreads over \
+         tens of projector columns.\n\n| method | facet pixels | direct column among the candidates | with a point | \
+         points within 0.5 column |\n|---|---|---|---|---|\n",
+    );
+    for m in &report.methods {
+        let g = &m.glossy;
+        md.push_str(&format!(
+            "| {} | {} | {:.2}% | {:.1}% | {:.2}% |\n",
+            m.method,
+            g.pixels,
+            100.0 * g.direct_among_candidates,
+            100.0 * g.completeness,
+            100.0 * g.points_within_half_column
+        ));
+    }
+    md.push_str("\n| method | depth with the mirror | direct light | indirect light | column error (0–1 column) |\n|---|---|---|---|---|\n");
     for m in &report.methods {
         let d = m.method.to_lowercase();
         md.push_str(&format!(

@@ -25,12 +25,12 @@ const BOARD_PRESET: &str = "paper-efsm-1";
 ///
 /// The bench scanner (SPEC §5; baseline 200 mm, standoff 500 mm, 768-column projector with
 /// a 0.7-column defocus blur, 12-bit camera) looks at a preset scene; light reaches the
-/// camera directly and through mirrors and diffuse interreflection, and the sensor adds shot
-/// and read noise. Scenes: plane, plane_mirror, plane_mirror_covered, vgroove, sphere_mirror,
-/// and checkerboard (a calibration target, below).
+/// camera directly and through mirrors and diffuse and glossy interreflection, and the sensor
+/// adds shot and read noise. Scenes: plane, plane_mirror, plane_mirror_covered, vgroove,
+/// sphere_mirror, vgroove_glossy (rough metal), and checkerboard (a calibration target, below).
 ///
 /// Writes into the output folder:
-///   plan.toml            the plan the patterns follow
+///   plan.toml            the plan the patterns follow (a preset states the simulated sensor)
 ///   calibration.toml     the simulated scanner's calibration (the true one)
 ///   scan.dump            the captures as a row dump (or images/0000.png… with --images)
 ///   truth/depth.tiff     ground-truth depth, mm (NaN: background)
@@ -281,13 +281,19 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The plan of `--plan` or `--preset`, else `default` (a preset name), else an error.
+/// The plan of `--plan` (as it is), or of `--preset` (or `default`, a preset name) stating
+/// the simulated camera's sensor as its datasheet would (`decoding.sensor`: the cosine search
+/// sets its threshold from it), else an error.
 fn plan_of(args: &Args, default: Option<&str>) -> Result<ScanPlan> {
     Ok(match (&args.plan, args.preset.as_deref().or(default)) {
         (Some(path), _) => super::load_plan(path)?,
-        (None, Some(name)) => Preset::from_name(name)
-            .expect("clap checked the name")
-            .plan(),
+        (None, Some(name)) => {
+            let mut plan = Preset::from_name(name)
+                .expect("clap checked the name")
+                .plan();
+            plan.decoding.sensor = Sensor::default().datasheet();
+            plan
+        }
         (None, None) => {
             return Err(Error::Usage(format!(
                 "--scene {}: give the plan with --plan FILE or --preset NAME",
