@@ -8,16 +8,15 @@
 //!
 //! | stage | module | paper |
 //! |---|---|---|
-//! | what is projected, in which order | [`plan`], [`sequence`] | eqs. 4–8, 14 |
-//! | mean removal, window, zero padding, real DFT | [`spectrum`] | §III-D, eq. 9 |
-//! | modelled spectrum of one lit column | [`kernel`] | SPEC §2 |
-//! | peaks without sidelobes (CLEAN) | [`search`] | §III-D, SPEC §2 |
-//! | the paper's local-maximum detector (fast) | [`maxima`] | §III-D |
-//! | sub-pixel column | [`deconvolution`], [`peak`] | refs. \[31\], \[42\] |
+//! | what is projected, in which order | [`plan`], [`plan::sequence`] | eqs. 4–8, 14 |
+//! | the exact inverse of the full band (DCT-I), lane-parallel | [`transform::cosine`], [`transform::fft`] | SPEC §2b |
+//! | mean removal, window, zero padding, real DFT; modelled kernel | [`transform::spectrum`], [`transform::kernel`] | §III-D, eq. 9 |
+//! | sensor noise through the transform; expected scatter | [`noise`] | eqs. 21–22 |
+//! | sub-pixel column | [`peak`], [`peak::deconvolution`] | refs. \[31\], \[42\] |
+//! | lights of a pixel: cosine search (default), CLEAN, local maxima | [`search`] | §III-D, SPEC §2, §2b |
 //! | EFSM border guard, blocks, candidates | [`block`] | eqs. 16–20 |
 //! | candidates of a pixel | [`candidate`] | eq. 18 |
 //! | one temporal row → candidates of every pixel | [`decoder`] | §III-F, §IV-B |
-//! | expected scatter | [`noise`] | eqs. 21–22 |
 //! | plans, row dumps, candidate rows as bytes | [`wire`] | SPEC §6 |
 //! | the phase-shift + Gray-code baseline, same candidates | [`phase_shift`] | eqs. 1–3, §VII |
 //!

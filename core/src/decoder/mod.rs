@@ -7,13 +7,13 @@
 //! and no input (zero, constant, saturated) makes the decoder panic.
 //!
 //! Two paths, by the plan's search:
-//! - [`cosine`]: the cosine search decodes `L` adjacent pixels at once, one lane each, through
+//! - `cosine`: the cosine search decodes `L` adjacent pixels at once, one lane each, through
 //!   one lane-parallel inverse cosine transform (the host picks a wide `L`, the camera `L = 1`;
 //!   the candidates are the same bits);
-//! - [`spectral`]: CLEAN and the local-maximum search decode pixel by pixel from the
+//! - `spectral`: CLEAN and the local-maximum search decode pixel by pixel from the
 //!   zero-padded DFT.
 //!
-//! Both hand each group's peaks to [`Decoder::add_group`], which turns them into candidates
+//! Both hand each group's peaks to `Decoder::add_group`, which turns them into candidates
 //! (BFSM directly, EFSM with the block masks, [`crate::block`]).
 
 mod cosine;

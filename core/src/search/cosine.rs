@@ -11,7 +11,8 @@
 //!    `noise_factor·σ` (so noise makes no maximum). A minimum below [`SPLIT_DEPTH`] of the
 //!    lower of its two maxima separates two lights whose footprints touch; a shallower one
 //!    leaves two lights that cannot be told apart: one mixed light, and the list is marked
-//!    [`PeakList::unresolved`]. The columns between two touching lights are shared: first at
+//!    [`PeakList::unresolved`], unless the minimum is within [`RIPPLE_DEPTH`] of the maxima
+//!    (the uneven top of one wide light). The columns between two touching lights are shared: first at
 //!    the minimum, then in proportion to what each light sends there, read off its own far
 //!    side as the mirror image about its centroid (a light is nearly symmetric, and its far
 //!    side holds none of the other's light); two lights 3 columns apart are then both within
@@ -49,6 +50,13 @@ use crate::transform::Lanes;
 
 /// A minimum below this fraction of the lower of its two maxima separates two lights.
 pub const SPLIT_DEPTH: f32 = 0.25;
+
+/// A minimum less than this fraction below the lower of its two maxima is a ripple on one
+/// light, not a sign of two: a camera pixel that covers several projector columns sees a
+/// footprint whose top is not flat (3-7% dips at 6 columns per pixel, `fsm demo --camera
+/// 128x96`). Between this and [`SPLIT_DEPTH`], the two maxima are lights that cannot be told
+/// apart.
+pub const RIPPLE_DEPTH: f32 = 0.1;
 
 /// A column's weight in a light's centroid is its light less this many noise RMS.
 pub const WEIGHT_FLOOR: f32 = 3.0;
@@ -291,7 +299,10 @@ fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, levels: &Levels, found: &
             v(ext[i]) > (1.0 - SPLIT_DEPTH) * lower
         });
         let Some(i) = shallow else { break };
-        found.unresolved = true;
+        let lower = v(ext[i - 1]).min(v(ext[i + 1]));
+        if v(ext[i]) < (1.0 - RIPPLE_DEPTH) * lower {
+            found.unresolved = true;
+        }
         let keep = if v(ext[i - 1]) >= v(ext[i + 1]) {
             ext[i - 1]
         } else {
