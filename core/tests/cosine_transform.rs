@@ -46,21 +46,18 @@ fn naive_inverse(z: &[f64]) -> Vec<f64> {
 fn inverse_matches_the_naive_transform_for_spans_from_8_to_2048() {
     let spans =
         (8..=2048usize).filter(|&s| s <= 600 || s % 5 == 0 || s.is_power_of_two() || s % 768 == 0);
-    check_spans(spans);
+    check_spans("8..=2048, a subset", spans);
 }
 
 #[test]
 #[ignore = "every span to 2048: about 20 s in release"]
 fn inverse_matches_the_naive_transform_for_every_span_from_8_to_2048() {
-    check_spans(8..=2048);
+    check_spans("8..=2048", 8..=2048);
 }
 
-fn check_spans(spans: impl Iterator<Item = usize>) {
+fn check_spans(label: &str, spans: impl Iterator<Item = usize>) {
     let (mut worst, mut worst_span) = (0.0f64, 0);
-    let (mut first, mut last) = (None::<usize>, 0);
     for span in spans {
-        first.get_or_insert(span);
-        last = span;
         let mut tables = vec![0.0f32; CosineTransform::tables_len(span)];
         CosineTransform::build(span, &mut tables).unwrap();
         let transform = CosineTransform::view(span, &tables).unwrap();
@@ -98,8 +95,7 @@ fn check_spans(spans: impl Iterator<Item = usize>) {
         }
     }
     println!(
-        "inverse DCT-I, spans {}..={last}: worst error {worst:.2e} of the profile's largest value (span {worst_span})",
-        first.unwrap_or(0)
+        "inverse DCT-I, spans {label}: worst error {worst:.2e} of the profile's largest value (span {worst_span})"
     );
     assert!(worst < 2e-5, "worst error {worst:e} at span {worst_span}");
 }

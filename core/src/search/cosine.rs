@@ -12,8 +12,8 @@
 //!    lower of its two maxima separates two lights whose footprints touch; a shallower one
 //!    leaves two lights that cannot be told apart: one mixed light, and the list is marked
 //!    [`PeakList::unresolved`], unless the minimum is within [`RIPPLE_DEPTH`] of the maxima
-//!    (the uneven top of one wide light). The columns between two touching lights are shared: first at
-//!    the minimum, then in proportion to what each light sends there, read off its own far
+//!    (the uneven top of one wide light). The columns between two touching lights are shared:
+//!    first at the minimum, then in proportion to what each light sends there, read off its own far
 //!    side as the mirror image about its centroid (a light is nearly symmetric, and its far
 //!    side holds none of the other's light); two lights 3 columns apart are then both within
 //!    0.1 column (`tests/cosine.rs`).
@@ -294,12 +294,11 @@ fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, levels: &Levels, found: &
     // Merge the two maxima around each shallow minimum, the larger standing for both, until
     // every remaining minimum is deep.
     loop {
-        let shallow = (1..ext.len()).step_by(2).find(|&i| {
+        let shallow = (1..ext.len()).step_by(2).find_map(|i| {
             let lower = v(ext[i - 1]).min(v(ext[i + 1]));
-            v(ext[i]) > (1.0 - SPLIT_DEPTH) * lower
+            (v(ext[i]) > (1.0 - SPLIT_DEPTH) * lower).then_some((i, lower))
         });
-        let Some(i) = shallow else { break };
-        let lower = v(ext[i - 1]).min(v(ext[i + 1]));
+        let Some((i, lower)) = shallow else { break };
         if v(ext[i]) < (1.0 - RIPPLE_DEPTH) * lower {
             found.unresolved = true;
         }
