@@ -67,6 +67,14 @@ fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
         serde_json::from_slice(&fs::read(out.join("summary.json")).unwrap()).unwrap();
     let points = summary["points"].as_u64().unwrap() as usize;
     assert!(points > 96 * 72 / 2, "{summary}");
+    // Every pixel without a point has a reason on record.
+    let without: u64 = summary["no_point"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|v| v.as_u64().unwrap())
+        .sum();
+    assert_eq!(points as u64 + without, 96 * 72, "{summary}");
 
     // Read points.ply back with ply-rs: as many vertices as the summary says, inside the
     // calibration's measurement volume (350–700 mm), pixel coordinates inside the image.
@@ -95,7 +103,7 @@ fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
 }
 
 #[test]
-fn scan_refuses_a_calibration_of_another_projector_and_leaves_nothing() {
+fn scan_refuses_a_calibration_of_another_projector_or_camera_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");
     fsm()
@@ -150,6 +158,30 @@ fn scan_refuses_a_calibration_of_another_projector_and_leaves_nothing() {
         .failure();
     let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
     assert!(stderr.contains("missing.toml"), "{stderr}");
+    assert!(!out.exists());
+    // A capture of a 48x36 camera against the calibration of a 32x24 one.
+    let larger = dir.path().join("larger");
+    fsm()
+        .args(["simulate", "--scene", "plane", "--preset", "paper-efsm-1"])
+        .args(["--camera", "48x36", "--out", s(&larger)])
+        .assert()
+        .success();
+    let assert = fsm()
+        .args([
+            "scan",
+            "--plan",
+            s(&larger.join("plan.toml")),
+            "--calibration",
+            s(&sim.join("calibration.toml")),
+        ])
+        .args(["--dump", s(&larger.join("scan.dump")), "--out", s(&out)])
+        .assert()
+        .failure();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(
+        stderr.contains("calibration.toml") && stderr.contains("32x24") && stderr.contains("48x36"),
+        "{stderr}"
+    );
     assert!(!out.exists());
 }
 

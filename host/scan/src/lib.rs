@@ -5,7 +5,8 @@
 //! | candidates of every pixel, from any method | [`decoded`] | |
 //! | every candidate → a 3D point, measurement volume | [`triangulate`] | SPEC §5 |
 //! | choose the direct candidate of every pixel | [`selection`] | §III-E, eqs. 10–13 |
-//! | the chosen point, column and direct / indirect light per pixel | [`surface`] | eqs. 12–13 |
+//! | drop the chosen points the projector cannot light directly | [`visibility`] | |
+//! | the chosen point (or why none), column and direct / indirect light per pixel | [`surface`] | eqs. 12–13 |
 //! | Fig. 9 metrics and column errors against ground truth | [`metrics`] | §VII-B |
 //! | `points.ply` | [`ply`] | |
 //! | everything `fsm scan` writes | [`output`] | |
@@ -17,6 +18,7 @@ pub mod ply;
 pub mod selection;
 pub mod surface;
 pub mod triangulate;
+pub mod visibility;
 
 pub use selection::{select, CandidateField, Label, Paths, Selection, SelectionParams};
-pub use surface::Surface;
+pub use surface::{NoPoint, NoPointCounts, Surface};

@@ -12,7 +12,7 @@ use fsm_host::{Error, Result};
 use serde::Serialize;
 
 use crate::ply::write_ply;
-use crate::surface::Surface;
+use crate::surface::{NoPointCounts, Surface};
 
 /// The contents of `summary.json`.
 #[derive(Clone, Debug, Serialize)]
@@ -35,6 +35,8 @@ pub struct ScanSummary {
     pub candidates_in_volume: usize,
     /// Pixels with a point.
     pub points: usize,
+    /// Pixels without a point, by reason.
+    pub no_point: NoPointCounts,
     /// Seconds spent decoding.
     pub decode_seconds: f64,
     /// Seconds spent triangulating.
@@ -58,6 +60,8 @@ pub struct SelectionSummary {
     pub beta_per_mm: f32,
     /// Whether aliased and unresolved pixels were given no point.
     pub drop_aliased: bool,
+    /// Whether the points the projector cannot light directly were dropped.
+    pub drop_fictitious: bool,
 }
 
 /// Writes every output of a scan into the folder `dir` (a staging folder: the caller commits

@@ -155,6 +155,9 @@ pub struct SelectionParams {
     /// width; unresolved, two touching lights the cosine search could not split): a missing
     /// point rather than a wrong one.
     pub drop_aliased: bool,
+    /// Give no point to a pixel whose chosen point the projector cannot light directly
+    /// ([`crate::visibility`]): a surface that exists only in reflections.
+    pub drop_fictitious: bool,
 }
 
 impl SelectionParams {
@@ -170,6 +173,7 @@ impl SelectionParams {
             beta_per_mm: 1.0 / footprint_mm,
             drop_isolated: true,
             drop_aliased: true,
+            drop_fictitious: true,
         }
     }
 }

@@ -1,10 +1,47 @@
-//! The measured surface: one point (or none) per pixel after selection, with its column and
-//! the direct / indirect illumination images (eqs. 12–13).
+//! The measured surface: one point (or none, with the reason) per pixel after selection and
+//! the projector-visibility test, with its column and the direct / indirect illumination
+//! images (eqs. 12–13).
 
 use fsm_geometry::Calibration;
+use serde::Serialize;
 
 use crate::ply::PlyPoint;
 use crate::selection::{select, CandidateField, Selection, SelectionParams};
+use crate::visibility::{fictitious_points, VisibilityParams};
+
+/// Why a pixel has no point: every pixel without one has a reason on record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum NoPoint {
+    /// The decoder found no light on it.
+    NoLight,
+    /// EFSM: lights of two blocks alias ([`fsm_core::PixelFlags::ALIASED`]).
+    Aliased,
+    /// Two touching lights the decoder could not split ([`fsm_core::PixelFlags::UNRESOLVED`]).
+    Unresolved,
+    /// Every candidate triangulates outside the measurement volume (or the pixel has no ray).
+    OutsideVolume,
+    /// The chosen point has chosen neighbours, none of them on its surface.
+    Isolated,
+    /// The projector cannot light the chosen point directly ([`crate::visibility`]).
+    Fictitious,
+}
+
+/// Pixels without a point, by reason (`summary.json`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct NoPointCounts {
+    /// See [`NoPoint::NoLight`].
+    pub no_light: usize,
+    /// See [`NoPoint::Aliased`].
+    pub aliased: usize,
+    /// See [`NoPoint::Unresolved`].
+    pub unresolved: usize,
+    /// See [`NoPoint::OutsideVolume`].
+    pub outside_volume: usize,
+    /// See [`NoPoint::Isolated`].
+    pub isolated: usize,
+    /// See [`NoPoint::Fictitious`].
+    pub fictitious: usize,
+}
 
 /// The result of a scan.
 #[derive(Clone, Debug, PartialEq)]
@@ -17,6 +54,8 @@ pub struct Surface {
     pub point_mm: Vec<Option<[f32; 3]>>,
     /// The chosen candidate's projector column.
     pub column: Vec<Option<f32>>,
+    /// Why a pixel has no point; `None` where it has one.
+    pub no_point: Vec<Option<NoPoint>>,
     /// `I_d` (eq. 12), sensor DN.
     pub direct: Vec<f32>,
     /// `I_id` (eq. 13), sensor DN.
@@ -26,32 +65,77 @@ pub struct Surface {
 }
 
 impl Surface {
-    /// Selects the direct candidate of every pixel of `field` and gathers its point.
-    pub fn select(field: &CandidateField, params: &SelectionParams) -> Surface {
+    /// Selects the direct candidate of every pixel of `field` and gathers its point;
+    /// `before[i]` is why pixel `i` has no candidate in `field`, if it has none.
+    pub fn select(
+        field: &CandidateField,
+        before: &[Option<NoPoint>],
+        params: &SelectionParams,
+    ) -> Surface {
         let selection: Selection = select(field, params);
         let pixels = field.width() * field.height();
+        assert_eq!(before.len(), pixels, "one reason slot per pixel");
         let mut surface = Surface {
             width: field.width(),
             height: field.height(),
             point_mm: vec![None; pixels],
             column: vec![None; pixels],
+            no_point: before.to_vec(),
             direct: selection.direct,
             indirect: selection.indirect,
             candidates: field.len(),
         };
         for (i, choice) in selection.choice.iter().enumerate() {
-            if let Some(c) = choice {
-                let label = field.labels(i % field.width(), i / field.width())[*c as usize];
-                surface.point_mm[i] = Some(label.point_mm);
-                surface.column[i] = Some(label.column);
+            let labels = field.labels(i % field.width(), i / field.width());
+            match choice {
+                Some(c) => {
+                    let label = labels[*c as usize];
+                    surface.point_mm[i] = Some(label.point_mm);
+                    surface.column[i] = Some(label.column);
+                }
+                None if !labels.is_empty() => surface.no_point[i] = Some(NoPoint::Isolated),
+                None => {
+                    surface.no_point[i].get_or_insert(NoPoint::NoLight);
+                }
             }
         }
         surface
     }
 
+    /// Removes the points the projector cannot light directly ([`crate::visibility`]).
+    pub fn drop_fictitious(&mut self, calibration: &Calibration, params: &VisibilityParams) {
+        let fictitious =
+            fictitious_points(calibration, self.width, self.height, &self.point_mm, params);
+        for (i, f) in fictitious.iter().enumerate() {
+            if *f {
+                self.point_mm[i] = None;
+                self.column[i] = None;
+                self.no_point[i] = Some(NoPoint::Fictitious);
+                self.indirect[i] += self.direct[i];
+                self.direct[i] = 0.0;
+            }
+        }
+    }
+
     /// Pixels with a point.
     pub fn points(&self) -> usize {
         self.point_mm.iter().filter(|p| p.is_some()).count()
+    }
+
+    /// Pixels without a point, by reason.
+    pub fn no_point_counts(&self) -> NoPointCounts {
+        let mut counts = NoPointCounts::default();
+        for reason in self.no_point.iter().flatten() {
+            *match reason {
+                NoPoint::NoLight => &mut counts.no_light,
+                NoPoint::Aliased => &mut counts.aliased,
+                NoPoint::Unresolved => &mut counts.unresolved,
+                NoPoint::OutsideVolume => &mut counts.outside_volume,
+                NoPoint::Isolated => &mut counts.isolated,
+                NoPoint::Fictitious => &mut counts.fictitious,
+            } += 1;
+        }
+        counts
     }
 
     /// Depth (camera `z`, mm) per pixel, `NaN` where none.
@@ -97,7 +181,7 @@ impl SelectionParams {
 pub struct StageTimes {
     /// Triangulating every candidate.
     pub triangulate_seconds: f64,
-    /// Selecting the direct candidates.
+    /// Selecting the direct candidates and testing their visibility from the projector.
     pub select_seconds: f64,
 }
 
@@ -109,7 +193,7 @@ impl Surface {
         params: &SelectionParams,
     ) -> (Surface, StageTimes) {
         let started = std::time::Instant::now();
-        let field = crate::triangulate::candidate_field(
+        let (field, before) = crate::triangulate::candidate_field(
             calibration,
             decoded.first_row,
             decoded.width,
@@ -118,7 +202,13 @@ impl Surface {
             params.drop_aliased,
         );
         let triangulated = std::time::Instant::now();
-        let surface = Surface::select(&field, params);
+        let mut surface = Surface::select(&field, &before, params);
+        if params.drop_fictitious {
+            surface.drop_fictitious(
+                calibration,
+                &VisibilityParams::for_epsilon(params.epsilon_mm),
+            );
+        }
         let times = StageTimes {
             triangulate_seconds: (triangulated - started).as_secs_f64(),
             select_seconds: triangulated.elapsed().as_secs_f64(),

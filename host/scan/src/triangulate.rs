@@ -4,16 +4,18 @@
 //! per-pixel column range of that volume can also be given to the decoder beforehand
 //! ([`column_limits`]), which drops them before they are even triangulated.
 
-use fsm_core::{ColumnRange, PixelCandidates};
+use fsm_core::{ColumnRange, PixelCandidates, PixelFlags};
 use fsm_geometry::Calibration;
 use nalgebra::Point2;
 use rayon::prelude::*;
 
 use crate::selection::{CandidateField, Label};
+use crate::surface::NoPoint;
 
 /// The candidates of `height` camera rows from `first_row` on, `width` pixels each (row-major
 /// `pixels`), triangulated; none for the pixels whose candidates may be mixtures
-/// ([`fsm_core::PixelFlags::is_mixed`]) when `drop_aliased`.
+/// ([`fsm_core::PixelFlags::is_mixed`]) when `drop_aliased`. With the field, why each pixel
+/// that has no candidate in it has none.
 pub fn candidate_field<const K: usize>(
     calibration: &Calibration,
     first_row: usize,
@@ -21,22 +23,28 @@ pub fn candidate_field<const K: usize>(
     height: usize,
     pixels: &[PixelCandidates<K>],
     drop_aliased: bool,
-) -> CandidateField {
+) -> (CandidateField, Vec<Option<NoPoint>>) {
     assert_eq!(pixels.len(), width * height, "one candidate list per pixel");
-    let rows: Vec<Vec<Vec<Label>>> = (0..height)
+    let rows: Vec<Vec<Result<Vec<Label>, NoPoint>>> = (0..height)
         .into_par_iter()
         .map(|y| {
             (0..width)
                 .map(|x| {
                     let pixel = Point2::new(x as f64, (first_row + y) as f64);
                     let candidates = &pixels[y * width + x];
-                    if drop_aliased && candidates.flags.is_mixed() {
-                        return Vec::new();
+                    if candidates.candidates.is_empty() {
+                        return Err(NoPoint::NoLight);
+                    }
+                    if drop_aliased && candidates.flags.contains(PixelFlags::ALIASED) {
+                        return Err(NoPoint::Aliased);
+                    }
+                    if drop_aliased && candidates.flags.contains(PixelFlags::UNRESOLVED) {
+                        return Err(NoPoint::Unresolved);
                     }
                     let Ok(ray) = calibration.pixel_ray(pixel) else {
-                        return Vec::new();
+                        return Err(NoPoint::OutsideVolume);
                     };
-                    candidates
+                    let labels: Vec<Label> = candidates
                         .candidates
                         .iter()
                         .filter_map(|c| {
@@ -47,12 +55,25 @@ pub fn candidate_field<const K: usize>(
                                 column: c.column,
                             })
                         })
-                        .collect()
+                        .collect();
+                    if labels.is_empty() {
+                        Err(NoPoint::OutsideVolume)
+                    } else {
+                        Ok(labels)
+                    }
                 })
                 .collect()
         })
         .collect();
-    CandidateField::from_fn(width, height, |x, y| rows[y][x].clone())
+    let field = CandidateField::from_fn(width, height, |x, y| {
+        rows[y][x].as_ref().map_or(Vec::new(), Clone::clone)
+    });
+    let before = rows
+        .iter()
+        .flatten()
+        .map(|r| r.as_ref().err().copied())
+        .collect();
+    (field, before)
 }
 
 /// The projector columns pixel `(x, y)` can see inside the measurement volume, for

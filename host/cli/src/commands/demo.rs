@@ -246,7 +246,9 @@ pub fn run(args: Args) -> Result<()> {
                     epsilon_mm: params.epsilon_mm,
                     beta_per_mm: params.beta_per_mm,
                     drop_aliased: params.drop_aliased,
+                    drop_fictitious: params.drop_fictitious,
                 },
+                no_point: surface.no_point_counts(),
                 calibration_checksum: format!("{:08x}", system.calibration.checksum()),
             };
             write_scan(&dir, &surface, &summary)?;

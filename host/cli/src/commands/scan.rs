@@ -1,5 +1,5 @@
 //! `fsm scan`: a surface from a capture — decode, triangulate every candidate, select the
-//! direct one of every pixel.
+//! direct one of every pixel, drop what the projector cannot light directly.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -20,7 +20,10 @@ use super::{BitDepth, CaptureSource};
 /// Every candidate column of a pixel (direct light and reflections) is triangulated with the
 /// calibration; candidates outside its measurement volume are dropped; the direct candidate
 /// of every pixel is chosen by semi-global selection (the surface is continuous, the
-/// fictitious surfaces made by reflections are not: SPEC §4).
+/// fictitious surfaces made by reflections are not: SPEC §4); a chosen point the projector
+/// cannot light directly (behind or hiding another surface on its projector ray, on a surface
+/// the projector sees from behind, outside its image) gets no point. summary.json counts the
+/// pixels without a point by reason.
 ///
 /// Writes into the output folder:
 ///   points.ply                 binary PLY: x y z (mm, camera frame), intensity, pixel x y
@@ -65,6 +68,10 @@ pub struct Args {
     /// By default they get no point.
     #[arg(long)]
     keep_aliased: bool,
+    /// Keep the chosen points the projector cannot light directly (reflections' fictitious
+    /// surfaces, virtual images); by default they get no point.
+    #[arg(long)]
+    keep_fictitious: bool,
     /// Decoding threads (default: one per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
@@ -104,6 +111,18 @@ pub fn run(args: Args) -> Result<()> {
         )));
     }
     let capture = args.source.open(&plan, &args.bit_depth)?;
+    let camera = &calibration.camera;
+    if (camera.width_px(), camera.height_px()) != (capture.width(), capture.height()) {
+        return Err(Error::Usage(format!(
+            "{}: the calibrated camera is {}x{} pixels, the capture {} is {}x{}",
+            args.calibration.display(),
+            camera.width_px(),
+            camera.height_px(),
+            capture.describe(),
+            capture.width(),
+            capture.height()
+        )));
+    }
     let staged = StagedDir::create(&args.out, args.force)?;
     let options = DecodeOptions {
         memory_budget_bytes: super::mebibytes(args.memory_budget),
@@ -122,6 +141,7 @@ pub fn run(args: Args) -> Result<()> {
     params.epsilon_mm = args.epsilon_mm.unwrap_or(params.epsilon_mm);
     params.beta_per_mm = args.beta_per_mm.unwrap_or(params.beta_per_mm);
     params.drop_aliased = !args.keep_aliased;
+    params.drop_fictitious = !args.keep_fictitious;
     let (surface, times) = Surface::reconstruct(&decoded, &calibration, &params);
     let summary = ScanSummary {
         method: match plan.method {
@@ -142,7 +162,9 @@ pub fn run(args: Args) -> Result<()> {
             epsilon_mm: params.epsilon_mm,
             beta_per_mm: params.beta_per_mm,
             drop_aliased: params.drop_aliased,
+            drop_fictitious: params.drop_fictitious,
         },
+        no_point: surface.no_point_counts(),
         aliased_pixels: decode_summary.aliased_pixels,
         unresolved_pixels: decode_summary.unresolved_pixels,
         calibration_checksum: format!("{:08x}", calibration.checksum()),

