@@ -180,6 +180,15 @@ impl<'t> Decoder<'t> {
             }
     }
 
+    /// The noise RMS of one column of the light profile (SPEC §2b) at a pixel that receives no
+    /// light (read noise and code rounding only), sensor DN: the scale a light's amplitude is
+    /// judged against. A lit pixel's noise is higher (shot noise). `None` for the DFT searches.
+    pub fn dark_column_noise_dn(plan: &ScanPlan, bit_depth: u8) -> Option<f32> {
+        let span = cosine_span(plan)?;
+        let sample = crate::noise::sample_noise_dn(&plan.decoding.sensor, bit_depth, 0.0);
+        Some(crate::noise::profile_noise_dn(sample, span))
+    }
+
     /// Floats of scratch [`Decoder::decode_row`] and every other method need, on any CPU.
     pub fn scratch_len(plan: &ScanPlan) -> usize {
         Self::scratch_len_lanes::<MAX_LANES>(plan)

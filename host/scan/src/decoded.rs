@@ -32,6 +32,10 @@ pub struct DecodedImage {
     pub height: usize,
     /// One candidate list per pixel.
     pub pixels: Vec<HostCandidates>,
+    /// The noise RMS of a light profile's column at a dark pixel, sensor DN
+    /// ([`Decoder::dark_column_noise_dn`]): what a point's quality is measured in. `None`
+    /// where the method has no such scale (DFT searches, phase shift).
+    pub column_noise_dn: Option<f32>,
 }
 
 impl DecodedImage {
@@ -44,6 +48,7 @@ impl DecodedImage {
     ) -> Result<(DecodedImage, DecodeSummary)> {
         let (width, height) = (capture.width() as usize, capture.height() as usize);
         let mut image = DecodedImage::empty(width, height);
+        image.column_noise_dn = Decoder::dark_column_noise_dn(plan, capture.bit_depth());
         let header = candidate_header(plan, capture.width(), capture.height());
         let summary = decode_capture(plan, capture, options, progress, |row| {
             image.take_row(&header, row)
@@ -106,6 +111,10 @@ impl DecodedImage {
             first_row: rows.start,
             height: rows.len(),
             pixels: decoded.into_iter().flatten().collect(),
+            column_noise_dn: match method {
+                Method::Fsm(plan) => Decoder::dark_column_noise_dn(plan, bit_depth),
+                Method::PhaseShift(_) => None,
+            },
         })
     }
 
@@ -115,6 +124,7 @@ impl DecodedImage {
             first_row: 0,
             height,
             pixels: vec![HostCandidates::new(); width * height],
+            column_noise_dn: None,
         }
     }
 

@@ -5,6 +5,8 @@
 //! - `EnoI`, `EwiI`: RMS distance of a scan's points to their least-squares plane.
 //! - completeness: the share of pixels that got a point.
 //! - column errors against the true direct column: RMS, and the share within 0.5 column.
+//! - point errors against the true surface point: the share of output points more than a
+//!   distance off, and the share of the directly lit pixels that keep a right point.
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
@@ -160,5 +162,82 @@ pub fn compare(with: &crate::Surface, without: &crate::Surface, truth: &Truth<'_
         e_no_i_mm: plane_fit_rmse_mm(on_surface(without)).unwrap_or(f64::NAN),
         e_wi_i_mm: plane_fit_rmse_mm(on_surface(with)).unwrap_or(f64::NAN),
         completeness: on_surface(with).len() as f64 / surface_pixels.max(1) as f64,
+    }
+}
+
+/// Output points against the true surface point of their pixel ([`point_errors`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PointErrors {
+    /// The distance beyond which a point is wrong, mm.
+    pub wrong_beyond_mm: f64,
+    /// Pixels with a point.
+    pub points: usize,
+    /// Of those, more than `wrong_beyond_mm` from the truth, or on a pixel whose ray meets no
+    /// surface.
+    pub wrong: usize,
+    /// Pixels the truth says are lit directly (the mask given).
+    pub lit: usize,
+    /// Of those, pixels whose point is within `wrong_beyond_mm` of the truth.
+    pub lit_right: usize,
+}
+
+impl PointErrors {
+    /// `wrong / points` (0 without points).
+    pub fn wrong_share(&self) -> f64 {
+        self.wrong as f64 / self.points.max(1) as f64
+    }
+
+    /// `lit_right / lit` (0 without lit pixels).
+    pub fn completeness(&self) -> f64 {
+        self.lit_right as f64 / self.lit.max(1) as f64
+    }
+}
+
+/// Compares every point with the true surface point of its pixel (`NaN`s where the pixel's ray
+/// meets no surface); `lit` masks the pixels the truth says are lit directly.
+pub fn point_errors(
+    points: &[Option<[f32; 3]>],
+    truth_mm: &[[f64; 3]],
+    lit: &[bool],
+    wrong_beyond_mm: f64,
+) -> PointErrors {
+    let mut e = PointErrors {
+        wrong_beyond_mm,
+        ..PointErrors::default()
+    };
+    for ((p, t), &lit) in points.iter().zip(truth_mm).zip(lit) {
+        let right = p.is_some_and(|p| {
+            let d: f64 = (0..3).map(|k| (p[k] as f64 - t[k]).powi(2)).sum();
+            // NaN (no true surface) is never right.
+            d.sqrt() <= wrong_beyond_mm
+        });
+        if p.is_some() {
+            e.points += 1;
+            e.wrong += usize::from(!right);
+        }
+        if lit {
+            e.lit += 1;
+            e.lit_right += usize::from(right);
+        }
+    }
+    e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn point_errors_count_far_points_and_points_on_no_surface_as_wrong() {
+        let nan = [f64::NAN; 3];
+        let truth = [[0.0, 0.0, 500.0], [0.0, 0.0, 500.0], nan, [0.0, 0.0, 500.0]];
+        let points = [
+            Some([0.0, 0.0, 500.5]),
+            Some([0.0, 0.0, 502.0]),
+            Some([0.0, 0.0, 500.0]),
+            None,
+        ];
+        let e = point_errors(&points, &truth, &[true, true, false, true], 1.0);
+        assert_eq!((e.points, e.wrong, e.lit, e.lit_right), (3, 2, 3, 1));
     }
 }

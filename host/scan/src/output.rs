@@ -1,7 +1,8 @@
-//! What `fsm scan` writes: `points.ply` (binary little-endian: x y z mm, intensity, pixel x y),
-//! `depth.tiff` and `column.tiff` (32-bit float, NaN where none), `direct.png` and
-//! `indirect.png` (eqs. 12–13, one shared scale), `depth.png` (coloured preview) and
-//! `summary.json` (counts, timings, parameters).
+//! What `fsm scan` writes: `points.ply` (binary little-endian: x y z mm, intensity, quality,
+//! pixel x y), `depth.tiff`, `column.tiff` and `quality.tiff` (32-bit float, NaN where none),
+//! `direct.png` and `indirect.png` (eqs. 12–13, one shared scale), `depth.png` (coloured
+//! preview) and `summary.json` (counts, pixels without a point by reason, timings,
+//! parameters).
 
 use std::path::Path;
 
@@ -62,6 +63,8 @@ pub struct SelectionSummary {
     pub drop_aliased: bool,
     /// Whether the points the projector cannot light directly were dropped.
     pub drop_fictitious: bool,
+    /// The least quality a point was given (signal-to-noise ratio).
+    pub min_quality: f32,
 }
 
 /// Writes every output of a scan into the folder `dir` (a staging folder: the caller commits
@@ -85,7 +88,11 @@ pub fn write_scan(dir: &Path, surface: &Surface, summary: &ScanSummary) -> Resul
         .iter()
         .map(|c| c.unwrap_or(f32::NAN))
         .collect();
-    for (name, values) in [("depth.tiff", &depth), ("column.tiff", &column)] {
+    for (name, values) in [
+        ("depth.tiff", &depth),
+        ("column.tiff", &column),
+        ("quality.tiff", &surface.quality),
+    ] {
         let path = dir.join(name);
         let mut bytes = Vec::new();
         write_tiff_f32(&mut std::io::Cursor::new(&mut bytes), w, h, values)

@@ -139,6 +139,10 @@ impl Paths {
     }
 }
 
+/// The default [`SelectionParams::min_quality`]: a light at least this many times the noise
+/// RMS of one column of a dark pixel's profile.
+pub const DEFAULT_MIN_QUALITY: f32 = 20.0;
+
 /// Parameters of eqs. 10–11.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SelectionParams {
@@ -158,6 +162,9 @@ pub struct SelectionParams {
     /// Give no point to a pixel whose chosen point the projector cannot light directly
     /// ([`crate::visibility`]): a surface that exists only in reflections.
     pub drop_fictitious: bool,
+    /// Give no point to a pixel whose chosen light's quality (signal-to-noise ratio,
+    /// [`crate::Surface::quality`]) is below this; methods without a quality are not filtered.
+    pub min_quality: f32,
 }
 
 impl SelectionParams {
@@ -174,6 +181,7 @@ impl SelectionParams {
             drop_isolated: true,
             drop_aliased: true,
             drop_fictitious: true,
+            min_quality: DEFAULT_MIN_QUALITY,
         }
     }
 }

@@ -22,6 +22,8 @@ pub enum NoPoint {
     OutsideVolume,
     /// The chosen point has chosen neighbours, none of them on its surface.
     Isolated,
+    /// The chosen light's quality is below [`SelectionParams::min_quality`].
+    LowQuality,
     /// The projector cannot light the chosen point directly ([`crate::visibility`]).
     Fictitious,
 }
@@ -39,6 +41,8 @@ pub struct NoPointCounts {
     pub outside_volume: usize,
     /// See [`NoPoint::Isolated`].
     pub isolated: usize,
+    /// See [`NoPoint::LowQuality`].
+    pub low_quality: usize,
     /// See [`NoPoint::Fictitious`].
     pub fictitious: usize,
 }
@@ -56,6 +60,10 @@ pub struct Surface {
     pub column: Vec<Option<f32>>,
     /// Why a pixel has no point; `None` where it has one.
     pub no_point: Vec<Option<NoPoint>>,
+    /// The quality of every point: its light's amplitude over the noise RMS of one column of
+    /// a dark pixel's light profile ([`fsm_core::Decoder::dark_column_noise_dn`]), a
+    /// signal-to-noise ratio. `NaN` where there is no point, or the method has no such scale.
+    pub quality: Vec<f32>,
     /// `I_d` (eq. 12), sensor DN.
     pub direct: Vec<f32>,
     /// `I_id` (eq. 13), sensor DN.
@@ -81,6 +89,7 @@ impl Surface {
             point_mm: vec![None; pixels],
             column: vec![None; pixels],
             no_point: before.to_vec(),
+            quality: vec![f32::NAN; pixels],
             direct: selection.direct,
             indirect: selection.indirect,
             candidates: field.len(),
@@ -102,17 +111,42 @@ impl Surface {
         surface
     }
 
+    /// Gives every point its quality: its light's amplitude over `column_noise_dn`.
+    pub fn rate(&mut self, column_noise_dn: Option<f32>) {
+        for (i, q) in self.quality.iter_mut().enumerate() {
+            *q = match (self.point_mm[i], column_noise_dn) {
+                (Some(_), Some(noise)) if noise > 0.0 => self.direct[i] / noise,
+                _ => f32::NAN,
+            };
+        }
+    }
+
+    /// Removes the points whose quality is known and below `min_quality`.
+    pub fn drop_below(&mut self, min_quality: f32) {
+        for i in 0..self.quality.len() {
+            if self.quality[i] < min_quality {
+                self.drop_point(i, NoPoint::LowQuality);
+            }
+        }
+    }
+
+    /// Takes pixel `i`'s point away for `reason`; its light counts as indirect (eq. 13).
+    fn drop_point(&mut self, i: usize, reason: NoPoint) {
+        self.point_mm[i] = None;
+        self.column[i] = None;
+        self.quality[i] = f32::NAN;
+        self.no_point[i] = Some(reason);
+        self.indirect[i] += self.direct[i];
+        self.direct[i] = 0.0;
+    }
+
     /// Removes the points the projector cannot light directly ([`crate::visibility`]).
     pub fn drop_fictitious(&mut self, calibration: &Calibration, params: &VisibilityParams) {
         let fictitious =
             fictitious_points(calibration, self.width, self.height, &self.point_mm, params);
         for (i, f) in fictitious.iter().enumerate() {
             if *f {
-                self.point_mm[i] = None;
-                self.column[i] = None;
-                self.no_point[i] = Some(NoPoint::Fictitious);
-                self.indirect[i] += self.direct[i];
-                self.direct[i] = 0.0;
+                self.drop_point(i, NoPoint::Fictitious);
             }
         }
     }
@@ -132,6 +166,7 @@ impl Surface {
                 NoPoint::Unresolved => &mut counts.unresolved,
                 NoPoint::OutsideVolume => &mut counts.outside_volume,
                 NoPoint::Isolated => &mut counts.isolated,
+                NoPoint::LowQuality => &mut counts.low_quality,
                 NoPoint::Fictitious => &mut counts.fictitious,
             } += 1;
         }
@@ -155,6 +190,7 @@ impl Surface {
                 p.map(|p| PlyPoint {
                     point_mm: p,
                     intensity: self.direct[i],
+                    quality: self.quality[i],
                     pixel: [(i % self.width) as u16, (i / self.width) as u16],
                 })
             })
@@ -203,6 +239,8 @@ impl Surface {
         );
         let triangulated = std::time::Instant::now();
         let mut surface = Surface::select(&field, &before, params);
+        surface.rate(decoded.column_noise_dn);
+        surface.drop_below(params.min_quality);
         if params.drop_fictitious {
             surface.drop_fictitious(
                 calibration,
@@ -214,5 +252,50 @@ impl Surface {
             select_seconds: triangulated.elapsed().as_secs_f64(),
         };
         (surface, times)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::selection::Label;
+
+    #[test]
+    fn a_point_below_the_least_quality_loses_it_with_its_reason_and_keeps_its_light() {
+        let label = |amplitude: f32| Label {
+            point_mm: [0.0, 0.0, 500.0],
+            amplitude,
+            column: 10.0,
+        };
+        // Three pixels far apart (no neighbours): lights of 5, 50 and 500 DN.
+        let field = CandidateField::from_fn(5, 1, |x, _| match x {
+            0 => vec![label(5.0)],
+            2 => vec![label(50.0)],
+            4 => vec![label(500.0)],
+            _ => vec![],
+        });
+        let before = [
+            None,
+            Some(NoPoint::NoLight),
+            None,
+            Some(NoPoint::NoLight),
+            None,
+        ];
+        let mut s = Surface::select(&field, &before, &SelectionParams::for_footprint(0.5));
+        s.rate(Some(2.0));
+        assert_eq!(s.quality[4], 250.0);
+        s.drop_below(20.0);
+        assert_eq!(s.point_mm[0], None);
+        assert_eq!(s.no_point[0], Some(NoPoint::LowQuality));
+        assert_eq!((s.direct[0], s.indirect[0]), (0.0, 5.0));
+        assert_eq!(s.quality[2], 25.0);
+        assert!(s.point_mm[2].is_some() && s.point_mm[4].is_some());
+        assert_eq!(s.no_point_counts().low_quality, 1);
+        assert_eq!(s.points() + 3, 5);
+        // Without a noise scale nothing is rated, and nothing filtered.
+        let mut unrated = Surface::select(&field, &before, &SelectionParams::for_footprint(0.5));
+        unrated.rate(None);
+        unrated.drop_below(20.0);
+        assert_eq!(unrated.points(), 3);
     }
 }

@@ -10,7 +10,7 @@ use fsm_host::image_files::{write_png_gray8, write_png_rgb8};
 use fsm_host::outputs::{write_file, StagedDir};
 use fsm_host::{Error, Result};
 use fsm_scan::decoded::{DecodedImage, Method};
-use fsm_scan::metrics::{compare, Comparison, Truth};
+use fsm_scan::metrics::{compare, point_errors, Comparison, PointErrors, Truth};
 use fsm_scan::output::{write_scan, ScanSummary, SelectionSummary};
 use fsm_scan::triangulate::column_limits;
 use fsm_scan::{SelectionParams, Surface};
@@ -68,6 +68,8 @@ struct MethodReport {
     method: &'static str,
     patterns: usize,
     figures: Comparison,
+    /// Output points on `plane_mirror` against the true surface points.
+    points: PointErrors,
     e_d_percent_of_standoff: f64,
     e_no_i_percent_of_standoff: f64,
     e_wi_i_percent_of_standoff: f64,
@@ -87,6 +89,22 @@ struct GlossyFigures {
     completeness: f64,
     /// Of the points, whose column is within 0.5 column of the direct one.
     points_within_half_column: f64,
+    /// Every output point of the scene against the true surface points.
+    points: PointErrors,
+}
+
+/// Output points more than this far from the true surface are wrong, mm.
+const WRONG_BEYOND_MM: f64 = 1.0;
+
+/// The true surface point of every pixel, and which pixels are lit directly (away from edges).
+fn truth_points(truth: &[PixelTruth]) -> (Vec<[f64; 3]>, Vec<bool>) {
+    (
+        truth.iter().map(|t| t.point_mm).collect(),
+        truth
+            .iter()
+            .map(|t| t.direct_column.is_finite() && !t.edge)
+            .collect(),
+    )
 }
 
 #[derive(Serialize)]
@@ -247,6 +265,7 @@ pub fn run(args: Args) -> Result<()> {
                     beta_per_mm: params.beta_per_mm,
                     drop_aliased: params.drop_aliased,
                     drop_fictitious: params.drop_fictitious,
+                    min_quality: params.min_quality,
                 },
                 no_point: surface.no_point_counts(),
                 calibration_checksum: format!("{:08x}", system.calibration.checksum()),
@@ -280,6 +299,8 @@ pub fn run(args: Args) -> Result<()> {
             surface: &surface_mask,
         };
         let figures = compare(&surfaces[0], &surfaces[1], &truth);
+        let (truth_mm, lit) = truth_points(&truth_pixels);
+        let points = point_errors(&surfaces[0].point_mm, &truth_mm, &lit, WRONG_BEYOND_MM);
         write_column_error(
             &staged.file(&format!("{}/column_error.png", name.to_lowercase())),
             w,
@@ -300,6 +321,7 @@ pub fn run(args: Args) -> Result<()> {
             method: name,
             patterns: plan.patterns(),
             figures,
+            points,
             e_d_percent_of_standoff: 100.0 * figures.e_d_mm / STANDOFF_MM,
             e_no_i_percent_of_standoff: 100.0 * figures.e_no_i_mm / STANDOFF_MM,
             e_wi_i_percent_of_standoff: 100.0 * figures.e_wi_i_mm / STANDOFF_MM,
@@ -359,12 +381,19 @@ fn glossy_figures(
         |y| capture.row(y as u32).map_err(sim_error),
     )?;
     let (surface, _) = Surface::reconstruct(&decoded, &system.calibration, params);
+    let truth: Vec<PixelTruth> = (0..w * h)
+        .map(|i| {
+            *capture
+                .ground_truth()
+                .pixel((i % w) as u32, (i / w) as u32)
+                .expect("a rendered pixel")
+        })
+        .collect();
+    let (truth_mm, lit) = truth_points(&truth);
+    let all_points = point_errors(&surface.point_mm, &truth_mm, &lit, WRONG_BEYOND_MM);
     let (mut pixels, mut among, mut points, mut right) = (0usize, 0usize, 0usize, 0usize);
     for (i, p) in decoded.pixels.iter().enumerate() {
-        let t = capture
-            .ground_truth()
-            .pixel((i % w) as u32, (i / w) as u32)
-            .expect("a rendered pixel");
+        let t = &truth[i];
         if t.class != SurfaceClass::Glossy || t.edge || !t.direct_column.is_finite() {
             continue;
         }
@@ -382,6 +411,7 @@ fn glossy_figures(
         direct_among_candidates: share(among, pixels),
         completeness: share(points, pixels),
         points_within_half_column: share(right, points),
+        points: all_points,
     })
 }
 
@@ -436,12 +466,12 @@ fn markdown(report: &Report) -> String {
          shows.\n\n",
         report.standoff_mm, report.camera[0], report.camera[1], report.seed, report.interreflection_pixels
     ));
-    md.push_str("| method | patterns | interreflection pixels within 0.5 column | column RMS there (covered) | Ed mm (% standoff) | EnoI mm | EwiI mm | completeness |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|\n");
+    md.push_str("| method | patterns | interreflection pixels within 0.5 column | column RMS there (covered) | Ed mm (% standoff) | EnoI mm | EwiI mm | completeness | points > 1 mm off | directly lit pixels with a right point |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
     for m in &report.methods {
         let f = &m.figures;
         md.push_str(&format!(
-            "| {} | {} | {:.2}% | {:.4} ({:.4}) | {:.4} ({:.4}%) | {:.4} | {:.4} | {:.1}% |\n",
+            "| {} | {} | {:.2}% | {:.4} ({:.4}) | {:.4} ({:.4}%) | {:.4} | {:.4} | {:.1}% | {:.2}% | {:.2}% |\n",
             m.method,
             m.patterns,
             100.0 * f.interreflection.within_half_column,
@@ -451,29 +481,37 @@ fn markdown(report: &Report) -> String {
             m.e_d_percent_of_standoff,
             f.e_no_i_mm,
             f.e_wi_i_mm,
-            100.0 * f.completeness
+            100.0 * f.completeness,
+            100.0 * m.points.wrong_share(),
+            100.0 * m.points.completeness()
         ));
     }
     md.push_str(
         "\nEd: RMS distance between the points of the scans with and without the mirror. EnoI, EwiI: RMS \
          distance to a fitted plane without and with the mirror (paper Fig. 9). Column RMS: of the pixels within \
-         0.5 column of the truth.\n\n",
+         0.5 column of the truth. Points > 1 mm off: the share of all output points more than 1 mm from the \
+         true surface point of their pixel (a point on a pixel that sees no surface counts as off); directly lit \
+         pixels with a right point: of the pixels the projector lights directly (away from edges), the share \
+         whose point is within 1 mm.\n\n",
     );
     md.push_str(
         "\n## Glossy interreflection: `vgroove_glossy`\n\nTwo rough-metal facets (GGX, roughness 0.2) in a V: the \
          light reflected facet to facet is about 13 times the direct light at the median pixel and spreads over \
          tens of projector columns.\n\n| method | facet pixels | direct column among the candidates | with a point | \
-         points within 0.5 column |\n|---|---|---|---|---|\n",
+         points within 0.5 column | points > 1 mm off | directly lit pixels with a right point |\n\
+         |---|---|---|---|---|---|---|\n",
     );
     for m in &report.methods {
         let g = &m.glossy;
         md.push_str(&format!(
-            "| {} | {} | {:.2}% | {:.1}% | {:.2}% |\n",
+            "| {} | {} | {:.2}% | {:.1}% | {:.2}% | {:.2}% | {:.2}% |\n",
             m.method,
             g.pixels,
             100.0 * g.direct_among_candidates,
             100.0 * g.completeness,
-            100.0 * g.points_within_half_column
+            100.0 * g.points_within_half_column,
+            100.0 * g.points.wrong_share(),
+            100.0 * g.points.completeness()
         ));
     }
     md.push_str("\n| method | depth with the mirror | direct light | indirect light | column error (0–1 column) |\n|---|---|---|---|---|\n");

@@ -26,11 +26,12 @@ use super::{BitDepth, CaptureSource};
 /// pixels without a point by reason.
 ///
 /// Writes into the output folder:
-///   points.ply                 binary PLY: x y z (mm, camera frame), intensity, pixel x y
+///   points.ply                 binary PLY: x y z (mm, camera frame), intensity, quality, pixel x y
 ///   depth.tiff, column.tiff    32-bit float per pixel, NaN where none
+///   quality.tiff               32-bit float per pixel: the point's signal-to-noise ratio
 ///   direct.png, indirect.png   direct and indirect light (paper eqs. 12-13), one scale
 ///   depth.png                  coloured depth preview (black: no point)
-///   summary.json               counts, timings, parameters
+///   summary.json               counts (pixels without a point by reason), timings, parameters
 ///
 /// Examples:
 ///   fsm scan --plan plan.toml --calibration cal.toml --images captures/ --out scan/
@@ -72,6 +73,12 @@ pub struct Args {
     /// surfaces, virtual images); by default they get no point.
     #[arg(long)]
     keep_fictitious: bool,
+    /// Give no point to a pixel whose light is weaker than this many times the noise RMS of
+    /// one column of a dark pixel's light profile (the point's quality, a signal-to-noise
+    /// ratio; written to points.ply and quality.tiff). 0 keeps every point. Plans decoded by a
+    /// DFT search have no quality and are not filtered.
+    #[arg(long, value_name = "SNR", default_value_t = fsm_scan::selection::DEFAULT_MIN_QUALITY)]
+    min_quality: f32,
     /// Decoding threads (default: one per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
@@ -142,6 +149,7 @@ pub fn run(args: Args) -> Result<()> {
     params.beta_per_mm = args.beta_per_mm.unwrap_or(params.beta_per_mm);
     params.drop_aliased = !args.keep_aliased;
     params.drop_fictitious = !args.keep_fictitious;
+    params.min_quality = args.min_quality;
     let (surface, times) = Surface::reconstruct(&decoded, &calibration, &params);
     let summary = ScanSummary {
         method: match plan.method {
@@ -163,6 +171,7 @@ pub fn run(args: Args) -> Result<()> {
             beta_per_mm: params.beta_per_mm,
             drop_aliased: params.drop_aliased,
             drop_fictitious: params.drop_fictitious,
+            min_quality: params.min_quality,
         },
         no_point: surface.no_point_counts(),
         aliased_pixels: decode_summary.aliased_pixels,
