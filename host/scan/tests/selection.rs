@@ -75,11 +75,11 @@ fn the_continuous_surface_wins_even_where_the_indirect_light_is_stronger() {
             "direct {direct} indirect {indirect}: {share}"
         );
     }
-    let sixteen = SelectionParams {
-        paths: Paths::Sixteen,
+    let eight = SelectionParams {
+        paths: Paths::Eight,
         ..params
     };
-    assert!(share_direct(&mirror_field(0.6, 1.0), &sixteen) >= 0.99);
+    assert!(share_direct(&mirror_field(0.6, 1.0), &eight) >= 0.99);
 }
 
 #[test]

@@ -260,7 +260,7 @@ pub fn run(args: Args) -> Result<()> {
                 triangulate_seconds: times.triangulate_seconds,
                 select_seconds: times.select_seconds,
                 selection: SelectionSummary {
-                    paths: 8,
+                    paths: params.paths.count(),
                     epsilon_mm: params.epsilon_mm,
                     beta_per_mm: params.beta_per_mm,
                     drop_aliased: params.drop_aliased,

@@ -35,7 +35,7 @@ use super::{BitDepth, CaptureSource};
 ///
 /// Examples:
 ///   fsm scan --plan plan.toml --calibration cal.toml --images captures/ --out scan/
-///   fsm scan --plan plan.toml --calibration cal.toml --dump scan.dump --paths 16 --out scan/
+///   fsm scan --plan plan.toml --calibration cal.toml --dump scan.dump --paths 8 --out scan/
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -52,8 +52,9 @@ pub struct Args {
     /// Output folder (created; must not exist or be empty, unless --force).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
-    /// Aggregation paths of the selection: 8 or 16.
-    #[arg(long, default_value_t = 8, value_parser = parse_paths)]
+    /// Aggregation paths of the selection: 8 or 16 (16 choose better where reflections make
+    /// large fictitious surfaces, at twice the selection's time).
+    #[arg(long, default_value_t = 16, value_parser = parse_paths)]
     paths: u8,
     /// Neighbours closer than this (mm) cost nothing (default: 4 pixel footprints at the
     /// middle of the measurement volume).
