@@ -215,11 +215,12 @@ pub struct Selection {
 /// Minimises eq. 10 semi-globally; directions are aggregated in parallel.
 pub fn select(field: &CandidateField, params: &SelectionParams) -> Selection {
     let data = data_costs(field);
+    let points: Vec<[f32; 3]> = field.labels.iter().map(|l| l.point_mm).collect();
     let total = params
         .paths
         .directions()
         .par_iter()
-        .map(|&d| aggregate(field, &data, params, d))
+        .map(|&d| aggregate(field, &points, &data, params, d))
         .reduce(
             || vec![0.0f32; data.len()],
             |mut a, b| {
@@ -322,9 +323,11 @@ fn data_costs(field: &CandidateField) -> Vec<f32> {
     data
 }
 
-/// `L_r` of every candidate for direction `(dx, dy)`.
+/// `L_r` of every candidate for direction `(dx, dy)`; `points` are the candidates' points in
+/// the field's order.
 fn aggregate(
     field: &CandidateField,
+    points: &[[f32; 3]],
     data: &[f32],
     params: &SelectionParams,
     (dx, dy): (i32, i32),
@@ -336,6 +339,9 @@ fn aggregate(
         .max()
         .unwrap_or(0);
     let mut scratch = vec![0.0f32; most];
+    let (beta, epsilon) = (params.beta_per_mm, params.epsilon_mm);
+    // Below this squared distance the step is certainly free (D < ε): no square root needed.
+    let free_squared = epsilon * epsilon * (1.0 - 1e-6);
     // Visit rows (then columns) so that v − r is always visited before v.
     let ys: Vec<i32> = if dy >= 0 {
         (0..h).collect()
@@ -367,17 +373,22 @@ fn aggregate(
                 continue;
             }
             let previous = &path[ps..pe];
+            let previous_points = &points[ps..pe];
             let floor = previous.iter().copied().fold(f32::INFINITY, f32::min);
             let current = &mut scratch[..ve - vs];
-            for (l, c) in current.iter_mut().enumerate() {
-                let here = &field.labels[vs + l].point_mm;
+            for ((c, here), cost) in current.iter_mut().zip(&points[vs..ve]).zip(&data[vs..ve]) {
                 let mut best = f32::INFINITY;
-                for (k, &prev) in previous.iter().enumerate() {
-                    let distance = distance_mm(here, &field.labels[ps + k].point_mm);
-                    let step = params.beta_per_mm * (distance - params.epsilon_mm).max(0.0);
+                for (&prev, there) in previous.iter().zip(previous_points) {
+                    let (ex, ey, ez) = (here[0] - there[0], here[1] - there[1], here[2] - there[2]);
+                    let squared = ex * ex + ey * ey + ez * ez;
+                    let step = if squared <= free_squared {
+                        0.0
+                    } else {
+                        beta * (squared.sqrt() - epsilon).max(0.0)
+                    };
                     best = best.min(prev + step);
                 }
-                *c = data[vs + l] + best - floor;
+                *c = cost + best - floor;
             }
             path[vs..ve].copy_from_slice(current);
         }
