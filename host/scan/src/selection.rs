@@ -10,7 +10,7 @@
 //! with `D` the distance between the chosen points of neighbours. The data term is the paper's
 //! `−I_c`, divided by the pixel's strongest amplitude so that it does not depend on the surface's
 //! albedo or the light level: `C = −I_c / max I`, in `[−1, 0)`. The energy is minimised
-//! semi-globally (Hirschmüller, paper ref. [34]): costs are aggregated along 8 (or 16) straight
+//! semi-globally (Hirschmüller, paper ref. \[34\]): costs are aggregated along 16 (or 8) straight
 //! paths through the image,
 //!
 //! ```text
