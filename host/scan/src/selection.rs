@@ -216,20 +216,25 @@ pub struct Selection {
 pub fn select(field: &CandidateField, params: &SelectionParams) -> Selection {
     let data = data_costs(field);
     let points: Vec<[f32; 3]> = field.labels.iter().map(|l| l.point_mm).collect();
-    let total = params
+    // As many directions at a time as there are threads, their costs added in the directions'
+    // order: the sum, so the choice, is the same for any number of threads, and no more path
+    // buffers are alive than threads.
+    let mut total = vec![0.0f32; data.len()];
+    for directions in params
         .paths
         .directions()
-        .par_iter()
-        .map(|&d| aggregate(field, &points, &data, params, d))
-        .reduce(
-            || vec![0.0f32; data.len()],
-            |mut a, b| {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += y;
-                }
-                a
-            },
-        );
+        .chunks(rayon::current_num_threads().max(1))
+    {
+        let paths: Vec<Vec<f32>> = directions
+            .par_iter()
+            .map(|&d| aggregate(field, &points, &data, params, d))
+            .collect();
+        for path in paths {
+            for (t, p) in total.iter_mut().zip(path) {
+                *t += p;
+            }
+        }
+    }
     let pixels = field.width * field.height;
     let mut choice = vec![None; pixels];
     for (i, c) in choice.iter_mut().enumerate() {

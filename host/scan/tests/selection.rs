@@ -195,3 +195,38 @@ fn an_isolated_choice_is_dropped() {
     );
     assert_eq!(kept.choice[4 * 9 + 4], Some(0));
 }
+
+#[test]
+fn the_choice_does_not_depend_on_the_number_of_threads() {
+    // Many candidates close in cost: the sums of 16 paths decide, to the last bit.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let field = CandidateField::from_fn(40, 30, |x, y| {
+        let n = 1 + (next() * 4.0) as usize;
+        let base = plane(x, y);
+        (0..n)
+            .map(|k| Label {
+                point_mm: [base[0], base[1], base[2] + k as f32 * 3.0 * next()],
+                amplitude: 50.0 + next() * 50.0,
+                column: 0.0,
+            })
+            .collect::<Vec<_>>()
+    });
+    let params = SelectionParams::for_footprint(FOOTPRINT_MM);
+    let with = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a pool")
+            .install(|| select(&field, &params))
+    };
+    let one = with(1);
+    for threads in [2, 3, 5] {
+        assert_eq!(with(threads), one, "{threads} threads");
+    }
+}
