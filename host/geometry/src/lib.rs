@@ -8,7 +8,7 @@
 //! | depth limits of the measurement | [`volume`] |
 //! | the calibrated pair | [`calibration`] |
 //! | candidate `(pixel, column)` → 3D point; a pixel's reachable columns | [`triangulation`] |
-//! | the calibration file (TOML, versioned, checksummed) | [`file`] |
+//! | the calibration file (TOML, versioned, checksummed) | [`file`](mod@file) |
 //! | OpenCV FileStorage calibrations of SLStudio, scan3d-capture, procam-calibration | [`opencv`] |
 //!
 //! Conventions: pixel `(0, 0)` has its centre at `(0, 0)`; projector column `j` has its centre
