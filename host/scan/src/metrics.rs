@@ -223,9 +223,49 @@ pub fn point_errors(
     e
 }
 
+/// [`point_errors`] against a true depth map (camera `z`, mm, `NaN` where the pixel sees no
+/// surface), as `fsm simulate` writes it: each point's true point is the one on its own ray
+/// (the camera's centre through the point) at the true depth.
+pub fn point_errors_from_depth(
+    points: &[Option<[f32; 3]>],
+    true_depth_mm: &[f32],
+    lit: &[bool],
+    wrong_beyond_mm: f64,
+) -> PointErrors {
+    let truth_mm: Vec<[f64; 3]> = points
+        .iter()
+        .zip(true_depth_mm)
+        .map(|(p, &z)| match p {
+            Some(p) if p[2] != 0.0 => {
+                let scale = z as f64 / p[2] as f64;
+                [p[0] as f64 * scale, p[1] as f64 * scale, z as f64]
+            }
+            _ => [f64::NAN; 3],
+        })
+        .collect();
+    point_errors(points, &truth_mm, lit, wrong_beyond_mm)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn depth_truth_is_taken_along_each_points_ray() {
+        // A point on a ray 13/12 as long as its depth ((150, 200, 600) mm), one on a pixel whose
+        // ray meets no surface, and a lit pixel without a point.
+        let points = [Some([150.0, 200.0, 600.0]), Some([0.0, 0.0, 500.0]), None];
+        let e = point_errors_from_depth(
+            &points,
+            &[600.5, f32::NAN, 500.0],
+            &[true, false, true],
+            1.0,
+        );
+        // 0.5 mm of depth is 0.54 mm along the ray: right; NaN truth: wrong.
+        assert_eq!((e.points, e.wrong, e.lit, e.lit_right), (2, 1, 2, 1));
+        let e = point_errors_from_depth(&points[..1], &[601.0], &[true], 1.0);
+        assert_eq!(e.wrong, 1, "1 mm of depth is 1.08 mm along the ray");
+    }
 
     #[test]
     fn point_errors_count_far_points_and_points_on_no_surface_as_wrong() {

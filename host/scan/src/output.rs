@@ -48,6 +48,23 @@ pub struct ScanSummary {
     pub selection: SelectionSummary,
     /// CRC-32 checksum of the calibration used (`fsm_geometry` file checksum).
     pub calibration_checksum: String,
+    /// The points against a known truth (`fsm scan --truth`), when one was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth: Option<TruthSummary>,
+}
+
+/// The points against the truth of a simulated capture, as written to `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct TruthSummary {
+    /// The truth folder.
+    pub folder: String,
+    /// The counts.
+    #[serde(flatten)]
+    pub errors: crate::metrics::PointErrors,
+    /// `wrong / points`.
+    pub wrong_share: f64,
+    /// `lit_right / lit`: the directly lit pixels that kept a right point.
+    pub completeness: f64,
 }
 
 /// The selection parameters as written to `summary.json`.

@@ -269,6 +269,7 @@ pub fn run(args: Args) -> Result<()> {
                 },
                 no_point: surface.no_point_counts(),
                 calibration_checksum: format!("{:08x}", system.calibration.checksum()),
+                truth: None,
             };
             write_scan(&dir, &surface, &summary)?;
             if truth_pixels.is_empty() {

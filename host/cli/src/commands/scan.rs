@@ -10,7 +10,8 @@ use fsm_host::outputs::StagedDir;
 use fsm_host::progress::Progress;
 use fsm_host::{Error, Result};
 use fsm_scan::decoded::DecodedImage;
-use fsm_scan::output::{write_scan, ScanSummary, SelectionSummary};
+use fsm_scan::metrics::point_errors_from_depth;
+use fsm_scan::output::{write_scan, ScanSummary, SelectionSummary, TruthSummary};
 use fsm_scan::{Paths, SelectionParams, Surface};
 
 use super::{BitDepth, CaptureSource};
@@ -89,6 +90,30 @@ pub struct Args {
     /// Replace the output folder if it exists and is not empty.
     #[arg(long)]
     force: bool,
+    /// The truth folder of a simulated capture (`fsm simulate`'s truth/: depth.tiff and
+    /// column.tiff): summary.json then counts the points more than 1 mm from the true surface
+    /// and the directly lit pixels that kept a right point.
+    #[arg(long, value_name = "DIR")]
+    truth: Option<PathBuf>,
+}
+
+/// The true depth (mm) and the directly lit pixels of a simulated capture of `width × height`.
+fn read_truth(dir: &std::path::Path, width: u32, height: u32) -> Result<(Vec<f32>, Vec<bool>)> {
+    let read = |name: &str| {
+        let path = dir.join(name);
+        let (w, h, values) = fsm_host::image_files::read_tiff_f32(&path)
+            .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+        if (w, h) != (width, height) {
+            return Err(Error::Usage(format!(
+                "{}: the truth is {w}x{h} pixels, the capture {width}x{height}",
+                path.display()
+            )));
+        }
+        Ok(values)
+    };
+    let depth = read("depth.tiff")?;
+    let lit = read("column.tiff")?.iter().map(|c| c.is_finite()).collect();
+    Ok((depth, lit))
 }
 
 fn parse_paths(s: &str) -> std::result::Result<u8, String> {
@@ -131,6 +156,11 @@ pub fn run(args: Args) -> Result<()> {
             capture.height()
         )));
     }
+    // Read before any work: a bad truth folder fails fast.
+    let truth = match &args.truth {
+        Some(dir) => Some((dir, read_truth(dir, capture.width(), capture.height())?)),
+        None => None,
+    };
     let staged = StagedDir::create(&args.out, args.force)?;
     let options = DecodeOptions {
         memory_budget_bytes: super::mebibytes(args.memory_budget),
@@ -178,6 +208,15 @@ pub fn run(args: Args) -> Result<()> {
         aliased_pixels: decode_summary.aliased_pixels,
         unresolved_pixels: decode_summary.unresolved_pixels,
         calibration_checksum: format!("{:08x}", calibration.checksum()),
+        truth: truth.map(|(dir, (depth, lit))| {
+            let errors = point_errors_from_depth(&surface.point_mm, &depth, &lit, 1.0);
+            TruthSummary {
+                folder: dir.display().to_string(),
+                errors,
+                wrong_share: errors.wrong_share(),
+                completeness: errors.completeness(),
+            }
+        }),
     };
     write_scan(staged.path(), &surface, &summary)?;
     let out = staged.commit()?;
