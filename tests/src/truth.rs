@@ -39,6 +39,12 @@ pub struct PixelTruth {
 }
 
 impl PixelTruth {
+    /// The projector lights the pixel's point directly, and its footprint is uniform (not an
+    /// edge): a pixel that should get a right point.
+    pub fn is_lit_directly(&self) -> bool {
+        self.direct_column.is_finite() && !self.edge
+    }
+
     /// Pixels with direct light whose indirect light exceeds `ratio ×` the direct light.
     pub fn has_interreflection(&self, ratio: f32) -> bool {
         self.direct > 0.0 && self.indirect > ratio * self.direct

@@ -7,18 +7,17 @@
 //! `cargo test -p fsm-sim --release --test scan -- --ignored --nocapture`. The figures print
 //! with `--nocapture`.
 
+mod support;
+
 use std::ops::Range;
 use std::sync::Arc;
 
 use fsm_core::{GroupCount, PhaseShiftPlan, ScanPlan};
-use fsm_scan::decoded::{self, DecodedImage};
+use fsm_scan::decoded;
 use fsm_scan::metrics::{compare, Comparison, Truth};
-use fsm_scan::triangulate::column_limits;
 use fsm_scan::{SelectionParams, Surface};
-use fsm_sim::{
-    Capture, LightTransport, PathKind, PixelTruth, Scene, Sensor, SurfaceClass, System,
-    TransportSettings,
-};
+use fsm_sim::{Capture, LightTransport, PathKind, PixelTruth, Sensor, SurfaceClass, System};
+use support::{scan_capture, transport};
 
 enum Method {
     Fsm(ScanPlan),
@@ -51,34 +50,8 @@ fn scan(
         ),
     };
     let capture = capture.expect("capture");
-    let width = capture.width() as usize;
-    let rows = capture.rows().start as usize..capture.rows().end as usize;
-    let limits = |y: usize| column_limits(&system.calibration, width, y);
-    let image = DecodedImage::decode_rows(
-        decoding,
-        width,
-        rows,
-        capture.bit_depth(),
-        Some(&limits),
-        |y| {
-            capture
-                .row(y as u32)
-                .map_err(|e| fsm_host::Error::Usage(e.to_string()))
-        },
-    )
-    .expect("rows decode");
     let params = SelectionParams::for_calibration(&system.calibration);
-    let (surface, _) = Surface::reconstruct(&image, &system.calibration, &params);
-    let truth = capture
-        .rows()
-        .flat_map(|y| (0..width as u32).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            *capture
-                .ground_truth()
-                .pixel(x, y)
-                .expect("truth of a rendered pixel")
-        })
-        .collect();
+    let (surface, truth) = scan_capture(&capture, decoding, system, &params);
     Scanned { surface, truth }
 }
 
@@ -140,19 +113,11 @@ fn photon_noise_ratio(truth: &[PixelTruth], mask: &[bool]) -> f64 {
     (sum / n as f64).sqrt()
 }
 
-fn transport(scene: &str, system: &System, rows: &Range<u32>) -> Arc<LightTransport> {
-    let scene = Scene::preset(scene).expect("preset");
-    Arc::new(
-        LightTransport::compute_rows(&scene, system, &TransportSettings::default(), rows.clone())
-            .expect("transport"),
-    )
-}
-
 fn compare_methods(rows: Range<u32>) {
     let system = System::bench();
     let (mirror, covered) = (
-        transport("plane_mirror", &system, &rows),
-        transport("plane_mirror_covered", &system, &rows),
+        transport("plane_mirror", &system, rows.clone()),
+        transport("plane_mirror_covered", &system, rows.clone()),
     );
     let bfsm = Method::Fsm(ScanPlan::paper_bfsm());
     let efsm = Method::Fsm(ScanPlan::paper_efsm(GroupCount::Two));
@@ -293,7 +258,7 @@ fn point_rms_mm(s: &Scanned, mask: impl Fn(usize, &PixelTruth) -> bool) -> f64 {
 
 fn vgroove(rows: Range<u32>) {
     let system = System::bench();
-    let t = transport("vgroove", &system, &rows);
+    let t = transport("vgroove", &system, rows.clone());
     let width = system.width() as usize;
     // Interreflection pixels, except where the other facet's light comes from columns within
     // 2Δc of the direct one (at the very apex): no decoder of columns separates those (§IV-C).

@@ -12,15 +12,17 @@
 //! The default run scans a band of rows of each scene; the whole images are
 //! `cargo test -p fsm-sim --release --test wrong_points -- --ignored --nocapture`.
 
+mod support;
+
 use std::ops::Range;
 use std::sync::Arc;
 
 use fsm_core::{GroupCount, ScanPlan};
-use fsm_scan::decoded::{self, DecodedImage};
+use fsm_scan::decoded;
 use fsm_scan::metrics::{point_errors, PointErrors};
-use fsm_scan::triangulate::column_limits;
-use fsm_scan::{NoPointCounts, SelectionParams, Surface};
-use fsm_sim::{Capture, LightTransport, PixelTruth, Scene, Sensor, System, TransportSettings};
+use fsm_scan::{NoPointCounts, SelectionParams};
+use fsm_sim::{Capture, LightTransport, PixelTruth, Sensor, System};
+use support::{scan_capture, transport};
 
 /// Distance from the truth beyond which a point is wrong, mm.
 const WRONG_MM: f64 = 1.0;
@@ -41,49 +43,17 @@ fn scan(
     // The plan states the simulated camera's sensor, as a user states theirs.
     let mut plan = *plan;
     plan.decoding.sensor = sensor.datasheet();
-    let width = capture.width() as usize;
-    let rows = capture.rows().start as usize..capture.rows().end as usize;
-    let limits = |y: usize| column_limits(&system.calibration, width, y);
-    let image = DecodedImage::decode_rows(
-        decoded::Method::Fsm(&plan),
-        width,
-        rows,
-        capture.bit_depth(),
-        Some(&limits),
-        |y| {
-            capture
-                .row(y as u32)
-                .map_err(|e| fsm_host::Error::Usage(e.to_string()))
-        },
-    )
-    .expect("rows decode");
     let params = SelectionParams {
         drop_fictitious,
         ..SelectionParams::for_calibration(&system.calibration)
     };
-    let (surface, _) = Surface::reconstruct(&image, &system.calibration, &params);
-    let truth: Vec<PixelTruth> = capture
-        .rows()
-        .flat_map(|y| (0..width as u32).map(move |x| (x, y)))
-        .map(|(x, y)| *capture.ground_truth().pixel(x, y).expect("truth"))
-        .collect();
+    let (surface, truth) = scan_capture(&capture, decoded::Method::Fsm(&plan), system, &params);
     let truth_mm: Vec<[f64; 3]> = truth.iter().map(|t| t.point_mm).collect();
-    let lit: Vec<bool> = truth
-        .iter()
-        .map(|t| t.direct_column.is_finite() && !t.edge)
-        .collect();
+    let lit: Vec<bool> = truth.iter().map(PixelTruth::is_lit_directly).collect();
     Figures {
         errors: point_errors(&surface.point_mm, &truth_mm, &lit, WRONG_MM),
         no_point: surface.no_point_counts(),
     }
-}
-
-fn transport(scene: &str, system: &System, rows: Range<u32>) -> Arc<LightTransport> {
-    let scene = Scene::preset(scene).expect("preset");
-    Arc::new(
-        LightTransport::compute_rows(&scene, system, &TransportSettings::default(), rows)
-            .expect("transport"),
-    )
 }
 
 /// The bounds a scan with the visibility test must keep: on the band of rows 100..140, the

@@ -401,7 +401,8 @@ fn aggregate(
     path
 }
 
-fn distance_mm(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+/// Euclidean distance between two points, mm.
+pub(crate) fn distance_mm(a: &[f32; 3], b: &[f32; 3]) -> f32 {
     let (x, y, z) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
     (x * x + y * y + z * z).sqrt()
 }

@@ -39,6 +39,8 @@
 use fsm_geometry::Calibration;
 use nalgebra::Point3;
 
+use crate::selection::distance_mm;
+
 /// Parameters of the visibility test.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VisibilityParams {
@@ -471,11 +473,6 @@ impl FragmentLookup<'_> {
         }
         found
     }
-}
-
-fn distance_mm(a: &[f32; 3], b: &[f32; 3]) -> f32 {
-    let (x, y, z) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
-    (x * x + y * y + z * z).sqrt()
 }
 
 #[cfg(test)]

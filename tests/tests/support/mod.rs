@@ -6,6 +6,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
+use fsm_scan::decoded::{self, DecodedImage};
+use fsm_scan::triangulate::column_limits;
+use fsm_scan::{SelectionParams, Surface};
 use fsm_sim::{Capture, LightTransport, PixelTruth, Scene, Sensor, System, TransportSettings};
 
 /// Candidates kept per pixel in the tests.
@@ -96,4 +99,43 @@ pub fn nearest_error(c: &PixelCandidates<K>, truth: f64) -> f64 {
 /// RMS of a list of errors.
 pub fn rms(errors: &[f64]) -> f64 {
     (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt()
+}
+
+/// Decodes every row of `capture` with `method` and the calibration's column limits,
+/// triangulates and selects with `params`: the library path `fsm scan` and `fsm demo` take.
+/// Returns the surface and the truth of its pixels, row-major.
+pub fn scan_capture(
+    capture: &Capture,
+    method: decoded::Method<'_>,
+    system: &System,
+    params: &SelectionParams,
+) -> (Surface, Vec<PixelTruth>) {
+    let width = capture.width() as usize;
+    let rows = capture.rows().start as usize..capture.rows().end as usize;
+    let limits = |y: usize| column_limits(&system.calibration, width, y);
+    let image = DecodedImage::decode_rows(
+        method,
+        width,
+        rows,
+        capture.bit_depth(),
+        Some(&limits),
+        |y| {
+            capture
+                .row(y as u32)
+                .map_err(|e| fsm_host::Error::Usage(e.to_string()))
+        },
+    )
+    .expect("rows decode");
+    let (surface, _) = Surface::reconstruct(&image, &system.calibration, params);
+    let truth = capture
+        .rows()
+        .flat_map(|y| (0..width as u32).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            *capture
+                .ground_truth()
+                .pixel(x, y)
+                .expect("truth of a rendered pixel")
+        })
+        .collect();
+    (surface, truth)
 }

@@ -100,10 +100,7 @@ const WRONG_BEYOND_MM: f64 = 1.0;
 fn truth_points(truth: &[PixelTruth]) -> (Vec<[f64; 3]>, Vec<bool>) {
     (
         truth.iter().map(|t| t.point_mm).collect(),
-        truth
-            .iter()
-            .map(|t| t.direct_column.is_finite() && !t.edge)
-            .collect(),
+        truth.iter().map(PixelTruth::is_lit_directly).collect(),
     )
 }
 
