@@ -31,8 +31,10 @@ search instead of CLEAN, e.g. efsm1-fast), or an 80-byte plan file written by `s
         check the camera's recorded answers to that session; write the candidates they carry
   compare EXPECTED ACTUAL
         byte-compare two candidate files; on a difference, name its row and pixel (exit 1)
-  serve [--listen ADDR]
-        the camera emulator on TCP (default 127.0.0.1:7070)
+  serve [--listen ADDR] [--frame-timeout S] [--idle-timeout S] [--hand-over S]
+        the camera emulator on TCP (default 127.0.0.1:7070); a connection is given up after
+        S seconds of silence inside a frame (default 5) or between frames (default 120, 0:
+        never), and handed to a waiting host after S seconds between frames (default 1)
   info  the camera's limits and memory"
 }
 
@@ -96,6 +98,18 @@ impl<'a> Options<'a> {
         let v = self.need(name)?;
         v.parse()
             .map_err(|_| Failure::Usage(format!("--{name} {v}: not a number")))
+    }
+
+    /// A duration in (decimal) seconds.
+    fn seconds(&self, name: &str) -> Result<Option<std::time::Duration>, Failure> {
+        let Some(v) = self.get(name) else {
+            return Ok(None);
+        };
+        v.parse::<f64>()
+            .ok()
+            .and_then(|s| std::time::Duration::try_from_secs_f64(s).ok())
+            .map(Some)
+            .ok_or_else(|| Failure::Usage(format!("--{name} {v}: not a number of seconds")))
     }
 
     fn only(&self, names: &[&str], free: usize) -> Result<(), Failure> {
@@ -275,8 +289,18 @@ fn run(args: &[String]) -> Result<(), Failure> {
             }
         }
         "serve" => {
-            o.only(&["listen"], 0)?;
+            o.only(&["listen", "frame-timeout", "idle-timeout", "hand-over"], 0)?;
             let addr = o.get("listen").unwrap_or("127.0.0.1:7070");
+            let mut timeouts = emulator::Timeouts::default();
+            if let Some(s) = o.seconds("frame-timeout")? {
+                timeouts.frame = s;
+            }
+            if let Some(s) = o.seconds("idle-timeout")? {
+                timeouts.idle = (!s.is_zero()).then_some(s);
+            }
+            if let Some(s) = o.seconds("hand-over")? {
+                timeouts.hand_over = s;
+            }
             let listener =
                 std::net::TcpListener::bind(addr).map_err(|e| err(format!("{addr}: {e}")))?;
             println!(
@@ -286,12 +310,15 @@ fn run(args: &[String]) -> Result<(), Failure> {
                 limits::MAX_ROW_SAMPLES
             );
             let stop = std::sync::atomic::AtomicBool::new(false);
-            emulator::serve_tcp(&listener, &stop, |peer, result| match result {
-                Ok(r) => println!(
-                    "{peer}: {} requests, {} rows, {} errors",
-                    r.requests, r.rows, r.errors
-                ),
-                Err(e) => println!("{peer}: link failed: {e}"),
+            emulator::serve_tcp(&listener, timeouts, &stop, |peer, result| {
+                let peer = peer.map_or("(peer gone)".to_string(), |p| p.to_string());
+                match result {
+                    Ok(r) => println!(
+                        "{peer}: {} requests, {} rows, {} errors",
+                        r.requests, r.rows, r.errors
+                    ),
+                    Err(e) => println!("{peer}: link given up: {e}"),
+                }
             })
             .map_err(|e| err(format!("{addr}: {e}")))
         }

@@ -20,12 +20,23 @@ use crate::limits::{CANDIDATE_CAPACITY, LANES};
 use crate::memory::Memory;
 use crate::scan::{self, NoProbe, RowBuffers, RowFailure, Scan, ScanError};
 
+/// What the device waits for when it reads: a link may give up on a half-sent frame sooner
+/// than on a quiet host, and hand the camera to another host only between frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Waiting {
+    /// The start of the next request: no frame is half received.
+    NextFrame,
+    /// The rest of a frame whose first bytes arrived.
+    RestOfFrame,
+}
+
 /// A byte stream to the host (TCP in the emulator, a UART or a replayed stream on the target).
 pub trait Link {
     /// The link's error.
     type Error;
-    /// Reads at least one byte, or returns 0 when the link is closed.
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error>;
+    /// Reads at least one byte, or returns 0 when the link is closed. An error (a time-out
+    /// included) ends [`Device::serve`]; the loaded plan stays, the scan does not.
+    fn read(&mut self, buf: &mut [u8], waiting: Waiting) -> Result<usize, Self::Error>;
     /// Sends all of `bytes`.
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), Self::Error>;
 }
@@ -53,7 +64,7 @@ impl<'a, S> Replay<'a, S> {
 impl<S: Sink> Link for Replay<'_, S> {
     type Error = S::Error;
 
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, S::Error> {
+    fn read(&mut self, buf: &mut [u8], _: Waiting) -> Result<usize, S::Error> {
         let n = buf.len().min(self.input.len() - self.at);
         buf[..n].copy_from_slice(&self.input[self.at..self.at + n]);
         self.at += n;
@@ -178,7 +189,12 @@ impl<'m> Device<'m> {
             let next = loop {
                 if at == len {
                     at = 0;
-                    len = link.read(&mut chunk)?;
+                    let waiting = if reader.in_frame() {
+                        Waiting::RestOfFrame
+                    } else {
+                        Waiting::NextFrame
+                    };
+                    len = link.read(&mut chunk, waiting)?;
                     if len == 0 {
                         return Ok(report);
                     }

@@ -360,7 +360,13 @@ fn serial_port_link() {
         }
     };
     let path = slave.name().expect("pty path");
-    let server = std::thread::spawn(move || emulator::serve_stream(master));
+    let mut master = master;
+    master.set_timeout(emulator::POLL).unwrap();
+    let timeouts = emulator::Timeouts {
+        idle: None,
+        ..emulator::Timeouts::default()
+    };
+    let server = std::thread::spawn(move || emulator::serve_stream(master, timeouts));
     let mut client = Client::connect(&format!("{path}@115200"), TIMEOUT).unwrap();
     drop(slave);
     let plan = ScanPlan::paper_efsm(GroupCount::One);

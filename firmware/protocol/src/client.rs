@@ -47,6 +47,14 @@ pub enum ClientError {
         /// The error.
         source: io::Error,
     },
+    /// The camera sent nothing for the link's read time-out (or did not take what was sent
+    /// within its write time-out) while the client was doing `context`.
+    TimedOut {
+        /// What the client was doing.
+        context: String,
+        /// The time-out, when the client set it.
+        after: Option<Duration>,
+    },
     /// The camera closed the link before answering `request`.
     Closed {
         /// The unanswered request.
@@ -106,6 +114,10 @@ impl fmt::Display for ClientError {
         match self {
             ClientError::Address(e) => write!(f, "{e}"),
             ClientError::Io { context, source } => write!(f, "{context}: {source}"),
+            ClientError::TimedOut { context, after } => match after {
+                Some(t) => write!(f, "{context}: timed out after {:.1} s", t.as_secs_f64()),
+                None => write!(f, "{context}: timed out"),
+            },
             ClientError::Closed { request } => {
                 write!(f, "the camera closed the link before answering {request}")
             }
@@ -177,6 +189,8 @@ pub struct Client<L> {
     /// Unread received bytes: `chunk[at..len]`.
     at: usize,
     len: usize,
+    /// The link's read and write time-out, for messages.
+    timeout: Option<Duration>,
 }
 
 impl Client<Box<dyn Link>> {
@@ -184,11 +198,17 @@ impl Client<Box<dyn Link>> {
     /// wait at most `timeout` for the camera's next bytes.
     pub fn connect(address: &str, timeout: Duration) -> Result<Self, ClientError> {
         let parsed = DeviceAddress::parse(address).map_err(ClientError::Address)?;
-        let link = parsed.open(timeout).map_err(|source| ClientError::Io {
-            context: format!("connecting to {parsed}"),
-            source,
+        let context = format!("connecting to {parsed}");
+        let link = parsed.open(timeout).map_err(|source| match source.kind() {
+            io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock => ClientError::TimedOut {
+                context,
+                after: Some(timeout),
+            },
+            _ => ClientError::Io { context, source },
         })?;
-        Ok(Client::new(link))
+        let mut client = Client::new(link);
+        client.timeout = Some(timeout);
+        Ok(client)
     }
 }
 
@@ -202,6 +222,19 @@ impl<L: Read + Write> Client<L> {
             chunk: vec![0u8; 64 << 10],
             at: 0,
             len: 0,
+            timeout: None,
+        }
+    }
+
+    /// A link error while doing `context`; a time-out (`TimedOut`, or `WouldBlock` from a
+    /// socket's read time-out) is reported as one.
+    fn io_error(&self, context: String, source: io::Error) -> ClientError {
+        match source.kind() {
+            io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock => ClientError::TimedOut {
+                context,
+                after: self.timeout,
+            },
+            _ => ClientError::Io { context, source },
         }
     }
 
@@ -226,10 +259,7 @@ impl<L: Read + Write> Client<L> {
         self.link
             .write_all(bytes)
             .and_then(|_| self.link.flush())
-            .map_err(|source| ClientError::Io {
-                context: format!("sending {request}"),
-                source,
-            })
+            .map_err(|source| self.io_error(format!("sending {request}"), source))
     }
 
     /// Waits for the next response (to `request`).
@@ -243,10 +273,8 @@ impl<L: Read + Write> Client<L> {
                         Ok(n) => break n,
                         Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                         Err(source) => {
-                            return Err(ClientError::Io {
-                                context: format!("waiting for the answer to {request}"),
-                                source,
-                            })
+                            return Err(self
+                                .io_error(format!("waiting for the answer to {request}"), source))
                         }
                     }
                 };

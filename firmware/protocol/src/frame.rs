@@ -232,6 +232,11 @@ impl<B: AsMut<[u8]> + AsRef<[u8]>> FrameReader<B> {
         }
     }
 
+    /// Whether a frame has begun and not ended (one too long to hold included).
+    pub fn in_frame(&self) -> bool {
+        !self.ended && (self.len > 0 || self.overflow)
+    }
+
     /// Most bytes of a frame it holds.
     pub fn capacity(&self) -> usize {
         self.buf.as_ref().len()
