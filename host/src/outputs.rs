@@ -1,11 +1,19 @@
 //! Whole-or-nothing outputs (SPEC §6): everything is written under a temporary name in the
 //! target's own folder and renamed into place only once complete, so an error, a panic or a
 //! kill never leaves a partial file or folder where the output belongs.
+//!
+//! The temporary name is `.NAME.partial-PID-XXXXXX`. What is left of it when the process
+//! ends early is removed as well:
+//! - SIGINT, SIGTERM and SIGHUP: [`remove_unfinished_on_signal`] (called by `fsm` first)
+//!   removes this process's staged outputs, then exits with 128 + the signal's number;
+//! - a `kill -9` or a power cut: the next output staged in the same folder removes the
+//!   staged outputs whose process is no longer running, and says so on stderr.
 
 use std::ffi::OsString;
 use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
 
 use tempfile::{NamedTempFile, TempDir};
 
@@ -19,12 +27,151 @@ fn parent_of(target: &Path) -> &Path {
     }
 }
 
-/// `.NAME.partial-` : temporary names are hidden and say what they will become.
+/// `.NAME.partial-PID-` : temporary names are hidden, say what they will become and which
+/// process writes them.
 fn temp_prefix(target: &Path, tag: &str) -> OsString {
     let mut prefix = OsString::from(".");
     prefix.push(target.file_name().unwrap_or_else(|| "output".as_ref()));
     prefix.push(tag);
+    prefix.push(format!("{}-", std::process::id()));
     prefix
+}
+
+/// Staged outputs of this process not yet committed: (temporary path, target).
+static UNFINISHED: Mutex<Vec<(PathBuf, PathBuf)>> = Mutex::new(Vec::new());
+
+fn unfinished() -> MutexGuard<'static, Vec<(PathBuf, PathBuf)>> {
+    // A panic while holding it leaves the list as it was: still the right list.
+    UNFINISHED.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Keeps a staged output on the list of [`UNFINISHED`] ones while it lives.
+struct Unfinished(PathBuf);
+
+impl Unfinished {
+    fn new(temp: &Path, target: &Path) -> Self {
+        unfinished().push((temp.to_path_buf(), target.to_path_buf()));
+        Unfinished(temp.to_path_buf())
+    }
+
+    /// Takes it off the list (under the caller's lock).
+    fn forget(list: &mut Vec<(PathBuf, PathBuf)>, temp: &Path) {
+        list.retain(|(t, _)| t != temp);
+    }
+}
+
+impl Drop for Unfinished {
+    fn drop(&mut self) {
+        Unfinished::forget(&mut unfinished(), &self.0);
+    }
+}
+
+/// On SIGINT, SIGTERM or SIGHUP, removes every staged output of this process not yet
+/// committed, says so on stderr, and exits with 128 + the signal's number. A commit under
+/// way finishes first (it holds the list), so the target is either whole or untouched.
+pub fn remove_unfinished_on_signal() -> io::Result<()> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])?;
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            if let Some(signal) = signals.forever().next() {
+                let name = match signal {
+                    SIGINT => "SIGINT",
+                    SIGTERM => "SIGTERM",
+                    _ => "SIGHUP",
+                };
+                // Held until the process ends: nothing is committed after this.
+                let list = unfinished();
+                for (temp, target) in list.iter() {
+                    let removed = remove_entry(temp);
+                    match removed {
+                        Ok(()) => eprintln!(
+                            "fsm: stopped by {name}: unfinished {} removed",
+                            target.display()
+                        ),
+                        Err(e) => eprintln!(
+                            "fsm: stopped by {name}: could not remove the unfinished {}: {e}",
+                            temp.display()
+                        ),
+                    }
+                }
+                if list.is_empty() {
+                    eprintln!("fsm: stopped by {name}");
+                }
+                std::process::exit(128 + signal);
+            }
+        })?;
+    Ok(())
+}
+
+/// Removes a file or a folder with everything in it; a folder another thread is still
+/// writing into is tried again.
+fn remove_entry(path: &Path) -> io::Result<()> {
+    let mut tries = 0;
+    loop {
+        let result = match fs::symlink_metadata(path) {
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(()),
+            Err(e) => Err(e),
+            Ok(m) if m.is_dir() => fs::remove_dir_all(path),
+            Ok(_) => fs::remove_file(path),
+        };
+        match result {
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(()),
+            Err(_) if tries < 20 => {
+                tries += 1;
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            other => return other,
+        }
+    }
+}
+
+/// Removes the staged outputs in `parent` that a process no longer running left behind
+/// (killed with SIGKILL, a power cut), saying so on stderr. Entries of a running process
+/// are left alone; where it cannot be told whether a process runs, nothing is removed.
+fn remove_abandoned(parent: &Path) {
+    // Linux: a running process has /proc/PID.
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = fs::read_dir(parent) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(abandoned_pid) else {
+            continue;
+        };
+        if pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists() {
+            continue;
+        }
+        let path = entry.path();
+        match remove_entry(&path) {
+            Ok(()) => eprintln!(
+                "fsm: removed {}, left by an interrupted run (process {pid})",
+                path.display()
+            ),
+            Err(e) => eprintln!(
+                "fsm: {} was left by an interrupted run (process {pid}) and could not be removed: {e}",
+                path.display()
+            ),
+        }
+    }
+}
+
+/// The writing process of a staged output's name `.NAME.partial-PID-XXXXXX` (or
+/// `.NAME.old-PID-XXXXXX`, a replaced folder moved aside).
+fn abandoned_pid(name: &str) -> Option<u32> {
+    let rest = name.strip_prefix('.')?;
+    let (_, tail) = rest
+        .rsplit_once(".partial-")
+        .or_else(|| rest.rsplit_once(".old-"))?;
+    let (pid, random) = tail.split_once('-')?;
+    if pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) || random.is_empty() {
+        return None;
+    }
+    pid.parse().ok()
 }
 
 /// A builder whose files and folders get the usual permissions (0666 / 0777 less the umask)
@@ -51,15 +198,20 @@ fn builder<'a>(prefix: &'a OsString, folder: bool) -> tempfile::Builder<'a, 'a> 
 pub struct StagedFile {
     writer: BufWriter<NamedTempFile>,
     target: PathBuf,
+    _unfinished: Unfinished,
 }
 
 impl StagedFile {
     /// Starts writing `target` (its folder must exist).
     pub fn create(target: &Path) -> Result<Self> {
         let parent = parent_of(target);
+        remove_abandoned(parent);
         let prefix = temp_prefix(target, ".partial-");
-        let temp = builder(&prefix, false).tempfile_in(parent).at(parent)?;
+        let temp = builder(&prefix, false)
+            .tempfile_in(parent)
+            .map_err(|e| cannot_stage(target, parent, e))?;
         Ok(StagedFile {
+            _unfinished: Unfinished::new(temp.path(), target),
             writer: BufWriter::with_capacity(1 << 20, temp),
             target: target.to_path_buf(),
         })
@@ -83,6 +235,8 @@ impl StagedFile {
             .into_inner()
             .map_err(|e| Error::io(&target, e.into_error()))?;
         temp.as_file().sync_all().at(&target)?;
+        let mut list = unfinished();
+        Unfinished::forget(&mut list, temp.path());
         temp.persist(&target)
             .map_err(|e| Error::io(&target, e.error))?;
         Ok(())
@@ -112,6 +266,7 @@ pub struct StagedDir {
     temp: TempDir,
     target: PathBuf,
     replace: bool,
+    _unfinished: Unfinished,
 }
 
 impl StagedDir {
@@ -129,9 +284,13 @@ impl StagedDir {
                 ),
             ));
         }
+        remove_abandoned(parent);
         let prefix = temp_prefix(target, ".partial-");
-        let temp = builder(&prefix, true).tempdir_in(parent).at(parent)?;
+        let temp = builder(&prefix, true)
+            .tempdir_in(parent)
+            .map_err(|e| cannot_stage(target, parent, e))?;
         Ok(StagedDir {
+            _unfinished: Unfinished::new(temp.path(), target),
             temp,
             target: target.to_path_buf(),
             replace,
@@ -156,6 +315,9 @@ impl StagedDir {
     /// Renames the folder into place.
     pub fn commit(self) -> Result<PathBuf> {
         check_target(&self.target, self.replace)?;
+        // A signal waits for the renames below: the target ends whole, or as it was.
+        let mut list = unfinished();
+        Unfinished::forget(&mut list, self.temp.path());
         let target = self.target;
         let mut old = None;
         if target.exists() {
@@ -186,6 +348,19 @@ impl StagedDir {
         }
         Ok(target)
     }
+}
+
+/// The error for a target whose folder takes no new entry (read-only, `/proc`, full): it
+/// names the target, and the folder as the place that refused.
+fn cannot_stage(target: &Path, parent: &Path, e: io::Error) -> Error {
+    // The system's words without tempfile's "at path <random name>".
+    let text = e.to_string();
+    let system = text.split(" at path ").next().unwrap_or(&text);
+    let why = format!(
+        "cannot write into its folder {}: {system}",
+        parent.display()
+    );
+    Error::io(target, io::Error::new(e.kind(), why))
 }
 
 fn is_empty_dir(path: &Path) -> Result<bool> {

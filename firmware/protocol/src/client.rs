@@ -18,7 +18,7 @@
 use std::fmt;
 use std::fs;
 use std::io::{self, Read, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 use fsm_core::wire::candidates::{self, CandidateHeader};
@@ -510,15 +510,15 @@ pub fn upload(
     Ok((fingerprint, info))
 }
 
-/// `fsm camera scan`: scans the row dump at `dump_path` through the camera at `address` and
-/// writes the candidate file (or raw rows) to `out_path` whole or not at all (a temporary
-/// name beside it, renamed when complete).
+/// `fsm camera scan`: scans the row dump at `dump_path` through the camera at `address`,
+/// writing the candidate file (or raw rows) to `out`. Making `out` whole or nothing (a
+/// staged file committed on success) is the caller's: the host has one atomic writer.
 pub fn scan_dump_file(
     address: &str,
     plan: &ScanPlan,
     dump_path: &Path,
     output: RowOutput,
-    out_path: &Path,
+    out: &mut impl Write,
     timeout: Duration,
 ) -> Result<ScanSummary, ClientError> {
     let dump = fs::read(dump_path).map_err(|source| ClientError::Io {
@@ -527,39 +527,5 @@ pub fn scan_dump_file(
     })?;
     let mut client = Client::connect(address, timeout)?;
     client.hello()?;
-    let tmp = temporary_path(out_path);
-    let io = |source, what: &str, path: &Path| ClientError::Io {
-        context: format!("{what} {}", path.display()),
-        source,
-    };
-    let file = fs::File::create(&tmp).map_err(|e| io(e, "creating", &tmp))?;
-    let mut writer = io::BufWriter::new(file);
-    let result = client
-        .scan_dump(
-            plan,
-            &dump,
-            &dump_path.display().to_string(),
-            output,
-            &mut writer,
-        )
-        .and_then(|summary| {
-            let file = writer
-                .into_inner()
-                .map_err(|e| io(e.into_error(), "writing", &tmp))?;
-            file.sync_all().map_err(|e| io(e, "writing", &tmp))?;
-            fs::rename(&tmp, out_path).map_err(|e| io(e, "renaming to", out_path))?;
-            Ok(summary)
-        });
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// `path` with `.part` appended, in the same directory (so the rename stays on one
-/// file system).
-fn temporary_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".part");
-    path.with_file_name(name)
+    client.scan_dump(plan, &dump, &dump_path.display().to_string(), output, out)
 }

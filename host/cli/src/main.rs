@@ -43,6 +43,9 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = fsm_host::outputs::remove_unfinished_on_signal() {
+        eprintln!("fsm: warning: interrupted runs may leave hidden .partial- outputs: {e}");
+    }
     let result = match cli.command {
         Command::Plan(args) => commands::plan::run(args),
         Command::Patterns(args) => commands::patterns::run(args),

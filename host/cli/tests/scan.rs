@@ -286,3 +286,147 @@ fn the_demo_reports_the_papers_comparison() {
         assert!(out.join(picture).is_file(), "{picture}");
     }
 }
+
+/// Hidden staging entries (`.NAME.partial-…`, `.NAME.old-…`) in `dir`.
+fn staging_entries(dir: &Path) -> Vec<String> {
+    fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.') && (n.contains(".partial-") || n.contains(".old-")))
+        .collect()
+}
+
+/// Replaces `frame` with a pipe that gives its bytes once — to the stack's header check —
+/// and then nothing: the decode that opens it again waits there, its output staged.
+#[cfg(unix)]
+fn hold_at_frame(frame: &Path) -> std::thread::JoinHandle<()> {
+    use std::io::Write;
+    let bytes = fs::read(frame).unwrap();
+    fs::remove_file(frame).unwrap();
+    let made = std::process::Command::new("mkfifo")
+        .arg(frame)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let frame = frame.to_path_buf();
+    std::thread::spawn(move || {
+        // Blocks until the header check opens it; a reader that stops early is fine.
+        let mut pipe = fs::OpenOptions::new().write(true).open(&frame).unwrap();
+        let _ = pipe.write_all(&bytes);
+    })
+}
+
+/// Runs `fsm args`, waits until it has staged its output in `parent`, sends `signal` (a
+/// `kill` name) and returns its exit code and stderr.
+#[cfg(unix)]
+fn interrupt(args: &[&str], parent: &Path, signal: &str) -> (Option<i32>, String) {
+    use std::os::unix::process::ExitStatusExt;
+    use std::time::{Duration, Instant};
+    let child = std::process::Command::new(assert_cmd::cargo::cargo_bin("fsm"))
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while staging_entries(parent).is_empty() {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "fsm {args:?} staged nothing"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The output is staged and the decode waits on the held frame.
+    std::thread::sleep(Duration::from_millis(200));
+    let sent = std::process::Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let out = child.wait_with_output().unwrap();
+    let code = out.status.code().or(out.status.signal().map(|s| -s));
+    (code, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// SIGTERM and SIGINT during `fsm scan` and `fsm decode` leave no staging folder; a SIGKILL
+/// leaves one, which the next run into the same folder removes and reports.
+#[cfg(unix)]
+#[test]
+fn interrupted_runs_leave_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    fsm()
+        .args(["simulate", "--scene", "plane", "--preset", "paper-efsm-1"])
+        .args(["--camera", "32x24", "--images", "--out", s(&sim)])
+        .assert()
+        .success();
+    let images = sim.join("images");
+    let last = fs::read_dir(&images)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .max()
+        .unwrap();
+    let original = fs::read(&last).unwrap();
+    let outs = dir.path().join("outs");
+    fs::create_dir(&outs).unwrap();
+    let (plan, calibration) = (sim.join("plan.toml"), sim.join("calibration.toml"));
+    let scan_out = outs.join("scan");
+    let scan: Vec<&str> = vec![
+        "scan",
+        "--plan",
+        s(&plan),
+        "--calibration",
+        s(&calibration),
+        "--images",
+        s(&images),
+        "--out",
+        s(&scan_out),
+    ];
+    let decode_out = outs.join("decoded");
+    let decode: Vec<&str> = vec![
+        "decode",
+        "--plan",
+        s(&plan),
+        "--images",
+        s(&images),
+        "--out",
+        s(&decode_out),
+    ];
+    for (args, signal, code) in [(&scan, "TERM", 143), (&decode, "INT", 130)] {
+        let writer = hold_at_frame(&last);
+        let (got, stderr) = interrupt(args, &outs, signal);
+        writer.join().unwrap();
+        assert_eq!(got, Some(code), "fsm {}: {stderr}", args[0]);
+        assert!(
+            stderr.contains(&format!("stopped by SIG{signal}")) && stderr.contains("removed"),
+            "{stderr}"
+        );
+        assert_eq!(
+            staging_entries(&outs),
+            Vec::<String>::new(),
+            "fsm {}",
+            args[0]
+        );
+        assert_eq!(fs::read_dir(&outs).unwrap().count(), 0);
+        fs::remove_file(&last).unwrap();
+        fs::write(&last, &original).unwrap();
+    }
+
+    // SIGKILL cannot be handled: the staging folder stays, and the next run removes it.
+    let writer = hold_at_frame(&last);
+    let (got, _) = interrupt(&scan, &outs, "KILL");
+    writer.join().unwrap();
+    assert_eq!(got, Some(-9));
+    let left = staging_entries(&outs);
+    assert_eq!(left.len(), 1, "{left:?}");
+    fs::remove_file(&last).unwrap();
+    fs::write(&last, &original).unwrap();
+    let assert = fsm().args(&scan).assert().success();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(
+        stderr.contains(&left[0]) && stderr.contains("left by an interrupted run"),
+        "{stderr}"
+    );
+    assert_eq!(staging_entries(&outs), Vec::<String>::new());
+    assert!(scan_out.join("points.ply").is_file());
+}

@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use fsm_host::outputs::StagedFile;
 use fsm_host::{Error, Result};
 use fsm_protocol::client::{self, Client};
 use fsm_protocol::RowOutput;
@@ -123,15 +124,17 @@ pub fn camera(args: CameraArgs) -> Result<()> {
             } else {
                 RowOutput::Candidates
             };
+            let mut file = StagedFile::create(&out)?;
             let summary = client::scan_dump_file(
                 &device,
                 &scan_plan,
                 &dump,
                 output,
-                &out,
+                file.writer(),
                 Duration::from_secs(timeout),
             )
             .map_err(link_error(&device))?;
+            file.commit()?;
             eprintln!(
                 "{device}: {} rows of {} scanned (plan {:016x}), {} bytes -> {}",
                 summary.rows,
