@@ -76,6 +76,10 @@ impl PixelFlags {
     /// the noise but too shallow to tell their footprints apart; the candidate for them is
     /// their mixture, off by up to half their distance, so a scan should not trust it.
     pub const UNRESOLVED: PixelFlags = PixelFlags(8);
+    /// The capture held no valid samples of this pixel: its row was corrupt or missing and
+    /// was skipped on request (a host's `--skip-bad-rows`). No light was looked for, so the
+    /// pixel's empty list says nothing about the scene. The decoder never sets it.
+    pub const NO_DATA: PixelFlags = PixelFlags(16);
 
     /// Whether the pixel's candidates may be mixtures of two lights ([`PixelFlags::ALIASED`] or
     /// [`PixelFlags::UNRESOLVED`]): a scan gives such a pixel no point unless asked to.

@@ -26,7 +26,7 @@ use std::time::Instant;
 use fsm_core::wire::row_dump::RowDumpHeader;
 use fsm_core::wire::HEADER_LEN;
 use fsm_core::{GroupCount, ScanPlan};
-use fsm_host::capture::{Capture, RowBatch, RowBatches};
+use fsm_host::capture::{BadRows, Capture, RowBatch, RowBatches};
 use fsm_host::decode::{self, DecodeOptions, DecodeSummary};
 use fsm_host::dump::{DumpReader, DumpWriter};
 use fsm_host::image_files;
@@ -174,7 +174,7 @@ fn run_case(case: &str, stack_dir: &Path) {
             let open = || {
                 let reader = DumpReader::new(Cursor::new(&bytes[..]), Path::new("memory")).unwrap();
                 reader.check(&plan, Some(BITS)).unwrap();
-                RowBatches::from_dump(reader.boxed(), dump_rows)
+                RowBatches::from_dump(reader.boxed(), dump_rows, BadRows::Refuse)
             };
             let pass = || match case {
                 "dump-memory-read-only" => read_all(&mut open()).0,

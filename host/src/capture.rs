@@ -10,9 +10,34 @@ use std::path::{Path, PathBuf};
 
 use fsm_core::ScanPlan;
 
-use crate::dump::{band_rows, DumpReader};
+use crate::dump::{band_rows, DumpError, DumpReader};
 use crate::error::{Error, Result};
 use crate::stack::Stack;
+
+/// What to do with a dump record that fails its check (CRC, row index, a repeated row) or
+/// rows the file does not hold (it ends early).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BadRows {
+    /// Refuse the capture with the error that names the file, record and row.
+    #[default]
+    Refuse,
+    /// Decode every good row; the bad or missing ones get no candidates and the flag
+    /// [`fsm_core::PixelFlags::NO_DATA`], and are listed ([`BadRecord`]).
+    Skip,
+}
+
+/// A dump record that was skipped ([`BadRows::Skip`]), or the end of a short file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BadRecord {
+    /// 0-based record number (none for a good record that came too late, after a bad one
+    /// had given its row up).
+    pub record: Option<u32>,
+    /// The row the record's bytes claim, when it is where a dump in row order has it (record
+    /// `r` claiming row `r`): that row is then given up at once instead of waited for.
+    pub row_hint: Option<u32>,
+    /// The error, naming the file, record, offset and row.
+    pub error: String,
+}
 
 /// Where the captured rows come from.
 #[derive(Clone, Debug)]
@@ -31,6 +56,8 @@ pub enum Capture {
         bit_depth: u8,
         /// Frames per row.
         frames: usize,
+        /// What a bad record does.
+        bad_rows: BadRows,
     },
 }
 
@@ -41,6 +68,8 @@ pub struct RowBatch {
     pub rows: Vec<u32>,
     /// `rows.len() · M · W` samples.
     pub samples: Vec<u16>,
+    /// Dump records skipped while the batch was read ([`BadRows::Skip`]).
+    pub bad: Vec<BadRecord>,
 }
 
 impl Capture {
@@ -49,9 +78,15 @@ impl Capture {
         Ok(Capture::Stack(Stack::open(dir, plan, bit_depth)?))
     }
 
-    /// Opens and checks a row dump against `plan` (header, fingerprint, frames, length).
-    pub fn open_dump(path: &Path, plan: &ScanPlan, bit_depth: Option<u8>) -> Result<Self> {
-        let reader = DumpReader::open(path)?;
+    /// Opens and checks a row dump against `plan` (header, fingerprint, frames, and length
+    /// unless bad rows are skipped: a short file then only misses its last rows).
+    pub fn open_dump(
+        path: &Path,
+        plan: &ScanPlan,
+        bit_depth: Option<u8>,
+        bad_rows: BadRows,
+    ) -> Result<Self> {
+        let reader = DumpReader::open_with(path, bad_rows == BadRows::Skip)?;
         reader.check(plan, bit_depth)?;
         let h = reader.header();
         Ok(Capture::Dump {
@@ -60,6 +95,7 @@ impl Capture {
             height: h.height,
             bit_depth: h.bit_depth,
             frames: h.frames as usize,
+            bad_rows,
         })
     }
 
@@ -146,9 +182,11 @@ impl Capture {
                 next: 0,
                 rows,
             },
-            Capture::Dump { path, .. } => {
-                RowBatches::from_dump(DumpReader::open(path)?.boxed(), rows.min(max_dump_rows))
-            }
+            Capture::Dump { path, bad_rows, .. } => RowBatches::from_dump(
+                DumpReader::open_with(path, *bad_rows == BadRows::Skip)?.boxed(),
+                rows.min(max_dump_rows),
+                *bad_rows,
+            ),
         })
     }
 }
@@ -171,16 +209,34 @@ pub enum RowBatches<'a> {
         reader: DumpReader<Box<dyn Read + Send + 'a>>,
         /// Rows per batch.
         rows: u32,
+        /// What a bad record does.
+        bad_rows: BadRows,
+        /// The input ended early (skipping bad rows): no more records.
+        ended: bool,
     },
 }
 
 impl<'a> RowBatches<'a> {
     /// Batches of at most `rows` records from a dump (file or memory) already checked against
     /// the plan.
-    pub fn from_dump(reader: DumpReader<Box<dyn Read + Send + 'a>>, rows: u32) -> Self {
+    pub fn from_dump(
+        reader: DumpReader<Box<dyn Read + Send + 'a>>,
+        rows: u32,
+        bad_rows: BadRows,
+    ) -> Self {
         RowBatches::Dump {
             reader,
             rows: rows.max(1),
+            bad_rows,
+            ended: false,
+        }
+    }
+
+    /// What a bad dump record does ([`BadRows::Refuse`] for a stack, which has no records).
+    pub fn bad_rows(&self) -> BadRows {
+        match self {
+            RowBatches::Stack { .. } => BadRows::Refuse,
+            RowBatches::Dump { bad_rows, .. } => *bad_rows,
         }
     }
 
@@ -226,6 +282,7 @@ impl<'a> RowBatches<'a> {
     /// Fills `batch` with the next rows; `false` when every row has been delivered.
     pub fn next_batch(&mut self, batch: &mut RowBatch) -> Result<bool, Error> {
         batch.rows.clear();
+        batch.bad.clear();
         match self {
             RowBatches::Stack { stack, next, rows } => {
                 let height = stack.height();
@@ -239,17 +296,47 @@ impl<'a> RowBatches<'a> {
                 *next = end;
                 Ok(true)
             }
-            RowBatches::Dump { reader, rows } => {
+            RowBatches::Dump {
+                reader,
+                rows,
+                bad_rows,
+                ended,
+            } => {
                 batch.samples.clear();
-                while batch.rows.len() < *rows as usize {
-                    match reader.next_row(&mut batch.samples)? {
-                        Some(row) => batch.rows.push(row),
-                        None => break,
+                while batch.rows.len() < *rows as usize && !*ended {
+                    match reader.next_row(&mut batch.samples) {
+                        Ok(Some(row)) => batch.rows.push(row),
+                        Ok(None) => *ended = true,
+                        Err(e) if *bad_rows == BadRows::Skip && e.spoils_one_record() => {
+                            batch.bad.push(bad_record(&e));
+                        }
+                        Err(e @ DumpError::Truncated { .. }) if *bad_rows == BadRows::Skip => {
+                            batch.bad.push(bad_record(&e));
+                            *ended = true;
+                        }
+                        Err(e) => return Err(e.into()),
                     }
                 }
-                Ok(!batch.rows.is_empty())
+                Ok(!batch.rows.is_empty() || !batch.bad.is_empty())
             }
         }
+    }
+}
+
+/// A skipped record, with the row it gives up at once when that is safe (see
+/// [`BadRecord::row_hint`]).
+fn bad_record(e: &DumpError) -> BadRecord {
+    let (record, row_hint) = match e {
+        DumpError::Record { record, .. } | DumpError::Truncated { record, .. } => {
+            (Some(*record), e.row().filter(|row| row == record))
+        }
+        DumpError::DuplicateRow { second, .. } => (Some(*second), None),
+        _ => (None, None),
+    };
+    BadRecord {
+        record,
+        row_hint,
+        error: e.to_string(),
     }
 }
 
@@ -302,7 +389,7 @@ mod tests {
         };
         let dump = dir.path().join("s.dump");
         crate::dump::write_dump_from_stack(&plan, s, &dump, 1 << 10, &Progress::hidden()).unwrap();
-        let from_dump = Capture::open_dump(&dump, &plan, None).unwrap();
+        let from_dump = Capture::open_dump(&dump, &plan, None, BadRows::Refuse).unwrap();
         let mut a = vec![0u16; capture.row_len()];
         let mut b = vec![0u16; capture.row_len()];
         for y in [0, 3, 5] {

@@ -10,7 +10,7 @@
 //! sink in row order whatever order a dump stores them in (a dump written out of order holds
 //! the decoded rows that arrive early, compact records, until their turn).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::time::Instant;
 
@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use crate::candidate_file::{
     self, CandidateWriter, HostCandidates, CANDIDATE_CAPACITY, CANDIDATE_FILE_NAME,
 };
-use crate::capture::{Capture, RowBatch, RowBatches};
+use crate::capture::{BadRecord, BadRows, Capture, RowBatch, RowBatches};
 use crate::column_map::{ColumnMap, COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
 use crate::error::{Error, Result};
 use crate::outputs::StagedDir;
@@ -74,7 +74,7 @@ pub struct DecodedRow {
 }
 
 /// What a decode did.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct DecodeSummary {
     /// Pixels per row.
     pub width: u32,
@@ -96,6 +96,12 @@ pub struct DecodeSummary {
     pub unresolved_pixels: u64,
     /// Rows per batch read at once.
     pub rows_per_batch: u32,
+    /// Rows the capture held no valid samples for (bad or missing dump records skipped with
+    /// [`BadRows::Skip`]): decoded as pixels without candidates, flagged
+    /// [`PixelFlags::NO_DATA`]. In row order.
+    pub rows_without_data: Vec<u32>,
+    /// The dump records skipped, each with its error.
+    pub bad_records: Vec<BadRecord>,
     /// Wall time, seconds.
     pub seconds: f64,
 }
@@ -172,7 +178,11 @@ pub fn decode_batches(
         ..Default::default()
     };
     let mut pending: BTreeMap<u32, DecodedRow> = BTreeMap::new();
+    // Rows given up (a bad record of a dump in row order stood where they belong): handed on
+    // without data when their turn comes, instead of holding every later row until the end.
+    let mut given_up: BTreeSet<u32> = BTreeSet::new();
     let mut next_row = 0u32;
+    let skip_bad_rows = batches.bad_rows() == BadRows::Skip;
     progress.start(height as u64, "decoding rows");
     // Decodes one batch, its rows in parallel.
     let decode_batch = |batch: &RowBatch| -> Result<Vec<DecodedRow>> {
@@ -193,13 +203,44 @@ pub fn decode_batches(
             )
             .collect()
     };
-    // Hands every decoded row now due to the sink.
-    let mut deliver = |decoded: Vec<DecodedRow>| -> Result<()> {
+    // Hands every decoded row now due to the sink; with `finish`, also the rows that never
+    // came (as rows without data).
+    let mut deliver = |decoded: Vec<DecodedRow>, bad: &[BadRecord], finish: bool| -> Result<()> {
         progress.advance(decoded.len() as u64);
         for d in decoded {
+            // A good record of a row a bad one had claimed: its data wins while there is time.
+            given_up.remove(&d.row);
+            if d.row < next_row {
+                // Too late: the row went on without data.
+                summary.bad_records.push(BadRecord {
+                    record: None,
+                    row_hint: None,
+                    error: format!(
+                        "row {} came after a bad record in its place had given it up; its record is ignored",
+                        d.row
+                    ),
+                });
+                continue;
+            }
             pending.insert(d.row, d);
         }
-        while let Some(d) = pending.remove(&next_row) {
+        for b in bad {
+            if let Some(row) = b.row_hint.filter(|&r| r >= next_row && r < height) {
+                if !pending.contains_key(&row) {
+                    given_up.insert(row);
+                }
+            }
+            summary.bad_records.push(b.clone());
+        }
+        while next_row < height {
+            let d = match pending.remove(&next_row) {
+                Some(d) => d,
+                None if given_up.remove(&next_row) || finish => {
+                    summary.rows_without_data.push(next_row);
+                    row_without_data(&header, next_row, width)?
+                }
+                None => break,
+            };
             summary.lit_pixels += d.lit_pixels as u64;
             summary.candidates += d.candidates as u64;
             summary.saturated_pixels += d.saturated_pixels as u64;
@@ -217,7 +258,7 @@ pub fn decode_batches(
         // phases use every thread, so alternating them costs nothing and holds one band.
         RowBatches::Stack { .. } => {
             while pool.install(|| batches.next_batch(&mut batch))? {
-                deliver(pool.install(|| decode_batch(&batch))?)?;
+                deliver(pool.install(|| decode_batch(&batch))?, &[], false)?;
             }
         }
         // Dump records are read and CRC-checked one after the other: the next batch is read
@@ -230,11 +271,14 @@ pub fn decode_batches(
                 let (decoded, read) = pool.install(|| {
                     rayon::join(|| decode_batch(&batch), || batches.next_batch(&mut next))
                 });
-                deliver(decoded?)?;
+                deliver(decoded?, &batch.bad, false)?;
                 more = read?;
                 std::mem::swap(&mut batch, &mut next);
             }
         }
+    }
+    if skip_bad_rows {
+        deliver(Vec::new(), &[], true)?;
     }
     progress.finish();
     if next_row != height {
@@ -244,6 +288,28 @@ pub fn decode_batches(
     }
     summary.seconds = started.elapsed().as_secs_f64();
     Ok(summary)
+}
+
+/// A row the capture held no valid samples for: no candidates, every pixel flagged
+/// [`PixelFlags::NO_DATA`].
+fn row_without_data(header: &CandidateHeader, row: u32, width: u32) -> Result<DecodedRow> {
+    let mut pixel = HostCandidates::new();
+    pixel.flags.insert(PixelFlags::NO_DATA);
+    let pixels = vec![pixel; width as usize];
+    let mut record = Vec::new();
+    candidate_file::encode_row(header, row, &pixels, &mut record)
+        .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
+    Ok(DecodedRow {
+        row,
+        record,
+        strongest: vec![f32::NAN; width as usize],
+        lit_pixels: 0,
+        candidates: 0,
+        saturated_pixels: 0,
+        truncated_pixels: 0,
+        aliased_pixels: 0,
+        unresolved_pixels: 0,
+    })
 }
 
 fn decode_row(

@@ -130,6 +130,15 @@ pub enum DumpError {
 }
 
 impl DumpError {
+    /// Whether the error is about one record only (a failed check, a repeated row): the
+    /// reader has passed it and the records after it can still be read.
+    pub fn spoils_one_record(&self) -> bool {
+        matches!(
+            self,
+            DumpError::Record { .. } | DumpError::DuplicateRow { .. }
+        )
+    }
+
     /// The row an error is about, when it names one.
     pub fn row(&self) -> Option<u32> {
         match self {
@@ -167,6 +176,13 @@ impl DumpReader<BufReader<File>> {
     /// (so a truncated or padded file is refused before any work, and before a record buffer
     /// is allocated).
     pub fn open(path: &Path) -> Result<Self, DumpError> {
+        Self::open_with(path, false)
+    }
+
+    /// [`DumpReader::open`], but a file shorter than its header promises is accepted when
+    /// `allow_short` (its reading then ends with [`DumpError::Truncated`] where the bytes end:
+    /// the rows before it are whole and checked, the others missing).
+    pub fn open_with(path: &Path, allow_short: bool) -> Result<Self, DumpError> {
         let io = |source| DumpError::Io {
             path: path.to_path_buf(),
             source,
@@ -189,7 +205,7 @@ impl DumpReader<BufReader<File>> {
             .expect("checked by RowDumpHeader::decode") as u64;
         let height = header.height;
         let expected = HEADER_LEN as u64 + record_len * height as u64;
-        if file_len < expected {
+        if file_len < expected && !allow_short {
             let record = ((file_len - HEADER_LEN as u64) / record_len) as u32;
             let offset = HEADER_LEN as u64 + record as u64 * record_len;
             let got = (file_len - offset) as usize;
@@ -315,7 +331,8 @@ impl<R: Read> DumpReader<R> {
 
     /// Reads the next record, checks it, and appends its samples (`W·M`, sample-major) to
     /// `samples`; returns its row, or `None` after the header's last record (then no byte may
-    /// follow). Memory grows only with the bytes actually read.
+    /// follow). Memory grows only with the bytes actually read. After an error that
+    /// [spoils one record](DumpError::spoils_one_record) the reader stands on the next record.
     pub fn next_row(&mut self, samples: &mut Vec<u16>) -> Result<Option<u32>, DumpError> {
         let offset = HEADER_LEN as u64 + self.record as u64 * self.record_len as u64;
         let io = |path: &Path, source| DumpError::Io {
@@ -370,9 +387,12 @@ impl<R: Read> DumpReader<R> {
             Ok(row) => row,
             Err(e) => {
                 samples.truncate(start);
+                // The record was read whole: the reader stands on the next one, so a caller
+                // that skips bad rows can go on.
+                self.record += 1;
                 return Err(DumpError::Record {
                     path: self.path.clone(),
-                    record: self.record,
+                    record: self.record - 1,
                     offset,
                     source: Wire(e),
                 });
@@ -380,11 +400,12 @@ impl<R: Read> DumpReader<R> {
         };
         if let Some(&first) = self.seen.get(&row) {
             samples.truncate(start);
+            self.record += 1;
             return Err(DumpError::DuplicateRow {
                 path: self.path.clone(),
                 row,
                 first,
-                second: self.record,
+                second: self.record - 1,
             });
         }
         self.seen.insert(row, self.record);

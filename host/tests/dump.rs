@@ -10,7 +10,7 @@ use std::path::Path;
 use fsm_core::wire::row_dump::RowDumpHeader;
 use fsm_core::wire::{WireError, HEADER_LEN};
 use fsm_core::{GroupCount, ScanPlan};
-use fsm_host::capture::Capture;
+use fsm_host::capture::{BadRows, Capture};
 use fsm_host::decode::{self, DecodeOptions};
 use fsm_host::dump::{DumpError, DumpReader, DumpWriter};
 use fsm_host::progress::Progress;
@@ -220,7 +220,7 @@ fn a_corrupted_dump_fails_the_decode_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scan.dump");
     std::fs::write(&path, &bytes).unwrap();
-    let capture = Capture::open_dump(&path, &plan, None).unwrap();
+    let capture = Capture::open_dump(&path, &plan, None, BadRows::Refuse).unwrap();
     let out = dir.path().join("decoded");
     let options = DecodeOptions {
         memory_budget_bytes: 1 << 20,
@@ -265,7 +265,7 @@ fn rows_stored_out_of_order_decode_to_the_same_candidate_file() {
     for (name, order) in [("a", &in_order), ("b", &reversed)] {
         let path = dir.path().join(format!("{name}.dump"));
         std::fs::write(&path, scene_dump(&plan, width, height, order)).unwrap();
-        let capture = Capture::open_dump(&path, &plan, Some(12)).unwrap();
+        let capture = Capture::open_dump(&path, &plan, Some(12), BadRows::Refuse).unwrap();
         let out = dir.path().join(name);
         let options = DecodeOptions {
             memory_budget_bytes: 1 << 30,

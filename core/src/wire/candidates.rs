@@ -29,7 +29,8 @@
 //!
 //! Pixel flags ([`PixelFlags`]): bit 0 saturated, bit 1 truncated (more candidates than the
 //! capacity), bit 2 aliased (EFSM lights unresolved modulo the block width), bit 3 unresolved
-//! (two touching lights the cosine search could not split); other bits 0.
+//! (two touching lights the cosine search could not split), bit 4 no data (the row was corrupt
+//! or missing in the capture and skipped on request; no light was looked for); other bits 0.
 //!
 //! Candidate (16 bytes): f32 column, f32 amplitude (DN), u16 block, u8 groups (bit 0 group 1,
 //! bit 1 group 2), u8 source group (1 or 2), u8 peak rank, 3 reserved bytes (0).

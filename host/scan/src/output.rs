@@ -38,6 +38,11 @@ pub struct ScanSummary {
     pub points: usize,
     /// Pixels without a point, by reason.
     pub no_point: NoPointCounts,
+    /// Rows the capture held no valid samples for (dump records skipped with
+    /// `--skip-bad-rows`): their pixels count as `no_point.no_data`.
+    pub rows_without_data: Vec<u32>,
+    /// The dump records skipped, each as its error (file, record, offset, row).
+    pub bad_records: Vec<String>,
     /// Seconds spent decoding.
     pub decode_seconds: f64,
     /// Seconds spent triangulating.

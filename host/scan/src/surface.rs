@@ -12,6 +12,9 @@ use crate::visibility::{fictitious_points, VisibilityParams};
 /// Why a pixel has no point: every pixel without one has a reason on record.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum NoPoint {
+    /// The capture held no valid samples of it: its row was corrupt or missing in the dump
+    /// and skipped on request ([`fsm_core::PixelFlags::NO_DATA`]).
+    NoData,
     /// The decoder found no light on it.
     NoLight,
     /// EFSM: lights of two blocks alias ([`fsm_core::PixelFlags::ALIASED`]).
@@ -31,6 +34,8 @@ pub enum NoPoint {
 /// Pixels without a point, by reason (`summary.json`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct NoPointCounts {
+    /// See [`NoPoint::NoData`].
+    pub no_data: usize,
     /// See [`NoPoint::NoLight`].
     pub no_light: usize,
     /// See [`NoPoint::Aliased`].
@@ -161,6 +166,7 @@ impl Surface {
         let mut counts = NoPointCounts::default();
         for reason in self.no_point.iter().flatten() {
             *match reason {
+                NoPoint::NoData => &mut counts.no_data,
                 NoPoint::NoLight => &mut counts.no_light,
                 NoPoint::Aliased => &mut counts.aliased,
                 NoPoint::Unresolved => &mut counts.unresolved,

@@ -32,6 +32,9 @@ pub fn candidate_field<const K: usize>(
                 .map(|x| {
                     let pixel = Point2::new(x as f64, (first_row + y) as f64);
                     let candidates = &pixels[y * width + x];
+                    if candidates.flags.contains(PixelFlags::NO_DATA) {
+                        return Err(NoPoint::NoData);
+                    }
                     if candidates.candidates.is_empty() {
                         return Err(NoPoint::NoLight);
                     }

@@ -8,7 +8,7 @@ use fsm_host::decode::{self, DecodeOptions};
 use fsm_host::progress::Progress;
 use fsm_host::Result;
 
-use super::{BitDepth, CaptureSource};
+use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource};
 
 /// Decode a scan: every projector column that lights each camera pixel.
 ///
@@ -34,6 +34,8 @@ pub struct Args {
     source: CaptureSource,
     #[command(flatten)]
     bit_depth: BitDepth,
+    #[command(flatten)]
+    bad_rows: BadRowsArg,
     /// Output folder (created; must not exist or be empty, unless --force).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
@@ -51,7 +53,9 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let plan = super::load_plan(&args.plan)?;
-    let capture = args.source.open(&plan, &args.bit_depth)?;
+    let capture = args
+        .source
+        .open(&plan, &args.bit_depth, args.bad_rows.policy())?;
     let options = DecodeOptions {
         memory_budget_bytes: super::mebibytes(args.memory_budget),
         threads: args.threads,
@@ -84,6 +88,7 @@ pub fn run(args: Args) -> Result<()> {
         summary.aliased_pixels,
         summary.unresolved_pixels
     );
+    report_bad_rows(&summary);
     eprintln!(
         "  wrote {}/{{{CANDIDATE_FILE_NAME}, {COLUMN_TIFF_NAME}, {COLUMN_PREVIEW_NAME}}}",
         args.out.display()

@@ -265,6 +265,8 @@ pub fn run(args: Args) -> Result<()> {
                     min_quality: params.min_quality,
                 },
                 no_point: surface.no_point_counts(),
+                rows_without_data: Vec::new(),
+                bad_records: Vec::new(),
                 calibration_checksum: format!("{:08x}", system.calibration.checksum()),
                 truth: None,
             };

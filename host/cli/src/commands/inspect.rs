@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use fsm_core::Group;
+use fsm_host::capture::BadRows;
 use fsm_host::inspect;
 use fsm_host::Result;
 
@@ -46,7 +47,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let plan = super::load_plan(&args.plan)?;
-    let capture = args.source.open(&plan, &args.bit_depth)?;
+    let capture = args.source.open(&plan, &args.bit_depth, BadRows::Refuse)?;
     if let Some((x, y)) = args.pixel {
         let view = inspect::inspect_pixel(&plan, &capture, x, y, &args.out)?;
         eprintln!("wrote {}", args.out.display());

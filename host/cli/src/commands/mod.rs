@@ -14,7 +14,7 @@ pub mod simulate;
 use std::path::PathBuf;
 
 use fsm_core::ScanPlan;
-use fsm_host::capture::Capture;
+use fsm_host::capture::{BadRows, Capture};
 use fsm_host::{plan_file, Result};
 
 /// Where the captured data is: exactly one of a stack of images or a row dump.
@@ -30,6 +30,63 @@ pub struct CaptureSource {
     pub dump: Option<PathBuf>,
 }
 
+/// What a bad record of a dump does.
+#[derive(clap::Args, Debug)]
+pub struct BadRowsArg {
+    /// Decode a dump whose records fail their check (CRC, row index, a repeated row) or that
+    /// ends early: the good rows are decoded, the bad or missing ones get no point (no_data)
+    /// and are listed on stderr (and in summary.json). By default such a dump is refused
+    /// with the error that names the record and its row.
+    #[arg(long, requires = "dump")]
+    pub skip_bad_rows: bool,
+}
+
+impl BadRowsArg {
+    /// The policy.
+    pub fn policy(&self) -> BadRows {
+        if self.skip_bad_rows {
+            BadRows::Skip
+        } else {
+            BadRows::Refuse
+        }
+    }
+}
+
+/// Tells what a decode skipped ([`BadRows::Skip`]), on stderr.
+pub fn report_bad_rows(summary: &fsm_host::decode::DecodeSummary) {
+    if summary.rows_without_data.is_empty() && summary.bad_records.is_empty() {
+        return;
+    }
+    eprintln!(
+        "  skipped {} bad record(s); {} row(s) without data, no point: {}",
+        summary.bad_records.len(),
+        summary.rows_without_data.len(),
+        row_list(&summary.rows_without_data)
+    );
+    for bad in &summary.bad_records {
+        eprintln!("    {}", bad.error);
+    }
+}
+
+/// `3, 7-9, 12`.
+fn row_list(rows: &[u32]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < rows.len() {
+        let mut j = i;
+        while j + 1 < rows.len() && rows[j + 1] == rows[j] + 1 {
+            j += 1;
+        }
+        parts.push(if j == i {
+            rows[i].to_string()
+        } else {
+            format!("{}-{}", rows[i], rows[j])
+        });
+        i = j + 1;
+    }
+    parts.join(", ")
+}
+
 /// Sensor bit depth option.
 #[derive(clap::Args, Debug)]
 pub struct BitDepth {
@@ -42,10 +99,15 @@ pub struct BitDepth {
 
 impl CaptureSource {
     /// Opens and checks the capture against `plan` (before any work).
-    pub fn open(&self, plan: &ScanPlan, bit_depth: &BitDepth) -> Result<Capture> {
+    pub fn open(
+        &self,
+        plan: &ScanPlan,
+        bit_depth: &BitDepth,
+        bad_rows: BadRows,
+    ) -> Result<Capture> {
         match (&self.images, &self.dump) {
             (Some(dir), _) => Capture::open_stack(dir, plan, bit_depth.bit_depth),
-            (None, Some(path)) => Capture::open_dump(path, plan, bit_depth.bit_depth),
+            (None, Some(path)) => Capture::open_dump(path, plan, bit_depth.bit_depth, bad_rows),
             (None, None) => unreachable!("clap requires one source"),
         }
     }

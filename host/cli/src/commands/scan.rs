@@ -14,7 +14,7 @@ use fsm_scan::metrics::point_errors_from_depth;
 use fsm_scan::output::{write_scan, ScanSummary, SelectionSummary, TruthSummary};
 use fsm_scan::{Paths, SelectionParams, Surface};
 
-use super::{BitDepth, CaptureSource};
+use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource};
 
 /// Scan a surface: decode the capture, triangulate every candidate, select the direct one.
 ///
@@ -50,6 +50,8 @@ pub struct Args {
     source: CaptureSource,
     #[command(flatten)]
     bit_depth: BitDepth,
+    #[command(flatten)]
+    bad_rows: BadRowsArg,
     /// Output folder (created; must not exist or be empty, unless --force).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
@@ -143,7 +145,9 @@ pub fn run(args: Args) -> Result<()> {
             plan.projector_columns
         )));
     }
-    let capture = args.source.open(&plan, &args.bit_depth)?;
+    let capture = args
+        .source
+        .open(&plan, &args.bit_depth, args.bad_rows.policy())?;
     let camera = &calibration.camera;
     if (camera.width_px(), camera.height_px()) != (capture.width(), capture.height()) {
         return Err(Error::Usage(format!(
@@ -205,6 +209,12 @@ pub fn run(args: Args) -> Result<()> {
             min_quality: params.min_quality,
         },
         no_point: surface.no_point_counts(),
+        rows_without_data: decode_summary.rows_without_data.clone(),
+        bad_records: decode_summary
+            .bad_records
+            .iter()
+            .map(|b| b.error.clone())
+            .collect(),
         aliased_pixels: decode_summary.aliased_pixels,
         unresolved_pixels: decode_summary.unresolved_pixels,
         calibration_checksum: format!("{:08x}", calibration.checksum()),
@@ -235,5 +245,6 @@ pub fn run(args: Args) -> Result<()> {
         times.select_seconds,
         out.display()
     );
+    report_bad_rows(&decode_summary);
     Ok(())
 }
