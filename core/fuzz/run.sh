@@ -5,11 +5,15 @@
 # crate has them. Uses the nightly toolchain when present, otherwise the stable one with
 # RUSTC_BOOTSTRAP (the fuzzing flags are unstable), and installs cargo-fuzz if it is missing. The
 # seed is fixed (FUZZ_SEED, default 1) so a CI run can be replayed; set it to 0 for libFuzzer's
-# own random seed. Fails on the first target that does not build, exits non-zero or leaves a
-# crash in artifacts/.
+# own random seed. Fails on the first target that does not build, exits non-zero, leaves a
+# crash in artifacts/ or ran no input, and when the crate lists no target at all: a fuzz step
+# that fuzzed nothing is a failure, not a pass. Ends with one line per target: runs, corpus
+# size, crashes.
 # Usage: core/fuzz/run.sh [seconds] [fuzz-crate-dir]
 set -euo pipefail
 seconds=${1:-20}
+# libFuzzer takes -max_total_time=0 as "no limit".
+[[ "$seconds" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz: seconds must be a positive integer, not '$seconds'" >&2; exit 2; }
 cd "${2:-$(dirname "$0")}"
 where=$(basename "$(dirname "$PWD")")/$(basename "$PWD")
 command -v cargo-fuzz >/dev/null || cargo install --locked cargo-fuzz@0.13.2
@@ -21,21 +25,40 @@ else
 fi
 # Built first, so that a target that does not compile fails here rather than in a filtered log.
 "${fuzz[@]}" build
-for target in $("${fuzz[@]}" list); do
+targets=$("${fuzz[@]}" list)
+if [ -z "$targets" ]; then
+    echo "fuzz: $where lists no fuzz target" >&2
+    exit 1
+fi
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+summary=()
+for target in $targets; do
     echo "== fuzz $target for ${seconds}s"
     mkdir -p "corpus/$target"
     inputs=("corpus/$target")
     [ -d "seeds/$target" ] && inputs+=("seeds/$target")
     status=0
     "${fuzz[@]}" run "$target" "${inputs[@]}" -- \
-        -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" 2>&1 |
-        { grep -E '^Done|panicked|ERROR|SUMMARY' || true; } || status=$?
+        -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" >"$log" 2>&1 || status=$?
+    grep -E '^Done|panicked|ERROR|SUMMARY' "$log" || true
     if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
         echo "fuzz $target found a crash: $where/artifacts/$target" >&2
         exit 1
     fi
     if [ "$status" -ne 0 ]; then
+        tail -n 20 "$log" >&2
         echo "fuzz $target failed (exit status $status)" >&2
         exit 1
     fi
+    # libFuzzer ends with `Done N runs in S second(s)`: no such line, or N = 0, fuzzed nothing.
+    runs=$(sed -n 's/^Done \([0-9]*\) runs in .*/\1/p' "$log" | tail -n1)
+    if [ -z "$runs" ] || [ "$runs" -eq 0 ]; then
+        tail -n 20 "$log" >&2
+        echo "fuzz $target ran no input" >&2
+        exit 1
+    fi
+    summary+=("$target: $runs runs in ${seconds} s, corpus $(ls "corpus/$target" | wc -l) inputs, 0 crashes")
 done
+echo "== fuzz $where: ${#summary[@]} targets"
+printf '  %s\n' "${summary[@]}"

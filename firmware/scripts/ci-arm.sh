@@ -171,9 +171,9 @@ for t in panic:101 abort:102 undef:102 exit:7:7; do
     fi
 done
 
-# 6. The Rust test that runs the cross-check (it skips when QEMU or a fresh ELF is missing;
-#    here both are present, so it must run, not skip).
-if FW_ELF="$BUILT_ELF" "$HOST_CARGO" test -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware \
+# 6. The Rust test that runs the cross-check (it skips when QEMU or a fresh ELF is missing,
+#    unless FW_REQUIRE_QEMU=1; here both are present, so it must run, not skip).
+if FW_ELF="$BUILT_ELF" FW_REQUIRE_QEMU=1 "$HOST_CARGO" test -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware \
     --test qemu_crosscheck -- --nocapture >rusttest.txt 2>&1 && ! grep -q '^SKIP' rusttest.txt; then
     grep -E '^(ok|identical)' rusttest.txt || true
     ok "cargo test -p fsm-firmware --test qemu_crosscheck"

@@ -29,8 +29,14 @@ search instead of CLEAN, e.g. efsm1-fast), or an 80-byte plan file written by `s
         kind of bad input first), for replay by the firmware under QEMU
   replies --plan PLAN --dump DUMP --in RESPONSES --out CANDIDATES [--bad-input yes]
         check the camera's recorded answers to that session; write the candidates they carry
-  compare EXPECTED ACTUAL
-        byte-compare two candidate files; on a difference, name its row and pixel (exit 1)
+  truth --plan PLAN --width W --rows H --candidates FILE [--tolerance C]
+        check a candidate file of the mirror scene `scene` renders against its truth: every
+        row present, the direct (and mirrored) light of the lit pixels within C columns
+        (default 0.5; 99% of direct, 95% of mirrored lights), at most 10% of the lit pixels
+        flagged as mixtures, no candidate in shadow (exit 1 otherwise)
+  compare EXPECTED ACTUAL [--min-rows N] [--min-lit N]
+        byte-compare two candidate files; on a difference, name its row and pixel (exit 1);
+        identical files must also hold N rows and N pixels with a candidate (default 1 each)
   serve [--listen ADDR] [--frame-timeout S] [--idle-timeout S] [--hand-over S]
         the camera emulator on TCP (default 127.0.0.1:7070); a connection is given up after
         S seconds of silence inside a frame (default 5) or between frames (default 120, 0:
@@ -271,12 +277,58 @@ fn run(args: &[String]) -> Result<(), Failure> {
             }
             Ok(())
         }
+        "truth" => {
+            o.only(&["plan", "width", "rows", "candidates", "tolerance"], 0)?;
+            let plan = plan(o.need("plan")?)?;
+            let (width, rows) = (o.number("width")?, o.number("rows")?);
+            let tolerance = match o.get("tolerance") {
+                None => 0.5,
+                Some(t) => t
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|t| *t > 0.0)
+                    .ok_or_else(|| Failure::Usage(format!("--tolerance {t}: columns, > 0")))?,
+            };
+            let path = o.need("candidates")?;
+            let bytes = read(path)?;
+            let header = fsm_core::wire::candidates::CandidateHeader::decode(&bytes)
+                .map_err(|e| err(format!("{path}: {e}")))?;
+            if header.plan_fingerprint != plan.fingerprint() {
+                return Err(err(format!(
+                    "{path}: decoded with plan {:016x}, not the plan given ({:016x})",
+                    header.plan_fingerprint,
+                    plan.fingerprint()
+                )));
+            }
+            let scene = MirrorScene::for_plan(&plan, width, rows);
+            let check = scene
+                .check(&bytes, tolerance)
+                .map_err(|e| err(format!("{path}: {e}")))?;
+            if check.passes(rows) {
+                println!("truth: {path}: {check} (within {tolerance} column)");
+                Ok(())
+            } else {
+                Err(err(format!(
+                    "{path}: not the scene's truth: {check} (within {tolerance} column; expected {rows} rows, 99% of direct and 95% of mirrored lights found, at most 10% flagged, shadow dark)"
+                )))
+            }
+        }
         "compare" => {
-            o.only(&[], 2)?;
+            o.only(&["min-rows", "min-lit"], 2)?;
             let (a, b) = (read(o.free[0])?, read(o.free[1])?);
             match reference::compare(&a, &b) {
                 Ok(()) => {
                     let census = reference::census(&a).map_err(|e| err(e.to_string()))?;
+                    // Two empty files are identical too: say how much must be there.
+                    let lit = census.width as usize * census.rows - census.by_count[0];
+                    let min = |name| o.get(name).map_or(Ok(1), |_| o.number(name));
+                    let (min_rows, min_lit) = (min("min-rows")?, min("min-lit")?);
+                    if census.rows < min_rows as usize || lit < min_lit as usize {
+                        return Err(err(format!(
+                            "{} and {} are identical but hold too little: {census}; at least {min_rows} rows and {min_lit} pixels with a candidate wanted",
+                            o.free[0], o.free[1]
+                        )));
+                    }
                     println!(
                         "identical: {} and {} ({} bytes; {census})",
                         o.free[0],

@@ -149,9 +149,18 @@ impl fmt::Display for Difference {
     }
 }
 
-type Pixel = PixelCandidates<{ u8::MAX as usize }>;
+/// A pixel's candidates as a file holds them (any capacity up to the format's 255).
+pub type Pixel = PixelCandidates<{ u8::MAX as usize }>;
 /// A candidate file read: its header and each record's row and pixels.
-type Records = (CandidateHeader, Vec<(u32, Vec<Pixel>)>);
+pub type Records = (CandidateHeader, Vec<(u32, Vec<Pixel>)>);
+
+/// Reads a whole candidate file.
+pub fn records(bytes: &[u8]) -> Result<Records, WireError> {
+    read(bytes, "candidates").map_err(|d| match d {
+        Difference::Unreadable { error, .. } => error,
+        _ => unreachable!("read only reports unreadable files"),
+    })
+}
 
 /// Reads a candidate file: its header and every record's pixels.
 fn read(bytes: &[u8], which: &'static str) -> Result<Records, Difference> {
@@ -243,10 +252,7 @@ pub fn compare(expected: &[u8], actual: &[u8]) -> Result<(), Difference> {
 
 /// What a candidate file holds, for reports: rows, pixels, and pixels by candidate count.
 pub fn census(bytes: &[u8]) -> Result<Census, WireError> {
-    let (header, records) = read(bytes, "candidates").map_err(|d| match d {
-        Difference::Unreadable { error, .. } => error,
-        _ => unreachable!("read only reports unreadable files"),
-    })?;
+    let (header, records) = records(bytes)?;
     let mut census = Census {
         width: header.width,
         rows: records.len(),

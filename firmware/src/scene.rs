@@ -137,6 +137,132 @@ impl MirrorScene {
     }
 }
 
+/// A candidate file against the scene's truth ([`MirrorScene::check`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TruthCheck {
+    /// Records in the file.
+    pub rows: usize,
+    /// Candidates in all.
+    pub candidates: usize,
+    /// Pixels the projector lights directly (not flagged), and those with a candidate at
+    /// their column.
+    pub lit: usize,
+    /// See `lit`.
+    pub direct_found: usize,
+    /// Pixels the mirror lights as well, and those with a candidate at the mirrored column.
+    pub mirrored: usize,
+    /// See `mirrored`.
+    pub mirror_found: usize,
+    /// Pixels in shadow, and those without a candidate.
+    pub shadow: usize,
+    /// See `shadow`.
+    pub shadow_dark: usize,
+    /// Candidates farther than the tolerance from every light of their pixel.
+    pub stray: usize,
+    /// Lit pixels the decoder flagged as mixtures ([`fsm_core::PixelFlags::is_mixed`]): a
+    /// scan gives them no point, so their candidates are not held to the truth.
+    pub flagged: usize,
+}
+
+impl TruthCheck {
+    /// Every row present; the direct light found in at least 99% of the lit pixels that are
+    /// not flagged, the mirrored light in 95% of theirs; at most 10% of the lit pixels
+    /// flagged; no candidate in shadow. Stray candidates are counted, not held against the
+    /// file: EFSM lists a light once per block its groups cannot rule out, by design.
+    ///
+    /// Measured with `fsm-firmware truth` on 48 × 32 pixels: BFSM all lights found, nothing
+    /// flagged or stray; EFSM with two groups 1288/1288 direct, 455/456 mirrored, 56 of 1344
+    /// flagged.
+    pub fn passes(&self, rows: u32) -> bool {
+        let lit = self.lit + self.flagged;
+        self.rows == rows as usize
+            && self.lit > 0
+            && 100 * self.direct_found >= 99 * self.lit
+            && 100 * self.mirror_found >= 95 * self.mirrored
+            && 10 * self.flagged <= lit
+            && self.shadow_dark == self.shadow
+    }
+}
+
+impl core::fmt::Display for TruthCheck {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "{} rows, {} candidates; direct light found in {}/{} lit pixels ({} more flagged as \
+             mixtures), mirrored light in {}/{}, {}/{} shadow pixels without a candidate, {} stray \
+             candidates",
+            self.rows,
+            self.candidates,
+            self.direct_found,
+            self.lit,
+            self.flagged,
+            self.mirror_found,
+            self.mirrored,
+            self.shadow_dark,
+            self.shadow,
+            self.stray
+        )
+    }
+}
+
+impl MirrorScene {
+    /// Compares a candidate file of this scene with its truth: a light counts as found when a
+    /// candidate of its pixel lies within `tolerance_columns` of its column.
+    pub fn check(&self, candidates: &[u8], tolerance_columns: f64) -> Result<TruthCheck, String> {
+        let (header, records) = crate::reference::records(candidates).map_err(|e| e.to_string())?;
+        if (header.width, header.height) != (self.width, self.height) {
+            return Err(format!(
+                "the candidates are {}x{} pixels, the scene {}x{}",
+                header.width, header.height, self.width, self.height
+            ));
+        }
+        let mut check = TruthCheck {
+            rows: records.len(),
+            ..TruthCheck::default()
+        };
+        for (y, pixels) in &records {
+            for (x, p) in pixels.iter().enumerate() {
+                check.candidates += p.candidates.len();
+                let found = |c: f64| {
+                    p.candidates
+                        .iter()
+                        .any(|k| (k.column as f64 - c).abs() <= tolerance_columns)
+                };
+                let lights: &[f64] = &match self.truth(x as u32, *y) {
+                    None => {
+                        check.shadow += 1;
+                        check.shadow_dark += p.candidates.is_empty() as usize;
+                        [f64::NAN; 2]
+                    }
+                    Some(_) if p.flags.is_mixed() => {
+                        check.flagged += 1;
+                        continue;
+                    }
+                    Some((direct, mirror)) => {
+                        check.lit += 1;
+                        check.direct_found += found(direct) as usize;
+                        if let Some(m) = mirror {
+                            check.mirrored += 1;
+                            check.mirror_found += found(m) as usize;
+                        }
+                        [direct, mirror.unwrap_or(f64::NAN)]
+                    }
+                };
+                check.stray += p
+                    .candidates
+                    .iter()
+                    .filter(|k| {
+                        lights
+                            .iter()
+                            .all(|c| c.is_nan() || (k.column as f64 - c).abs() > tolerance_columns)
+                    })
+                    .count();
+            }
+        }
+        Ok(check)
+    }
+}
+
 /// Adds the integer columns around `centre` with Gaussian weights summing to `dn`.
 fn spread(centre: f64, sigma: f64, dn: f64, out: &mut Vec<(i64, f64)>) {
     let start = out.len();
@@ -213,6 +339,39 @@ mod tests {
             }
             assert_eq!((lit, mirrored), (28, 10));
         }
+    }
+
+    /// The truth check passes the host's decode and fails a decode half a column off, a
+    /// file without rows, and one with a row missing.
+    #[test]
+    fn the_truth_check_fails_a_decode_that_is_off() {
+        use fsm_core::wire::candidates::{encode_record, record_len};
+        let plan = ScanPlan::paper_bfsm();
+        let (w, h) = (24, 4);
+        let scene = MirrorScene::for_plan(&plan, w, h);
+        let good = crate::reference::decode_dump(&plan, &scene.dump(&plan)).unwrap();
+        assert!(scene.check(&good, 0.5).unwrap().passes(h));
+        let (header, records) = crate::reference::records(&good).unwrap();
+        let write = |shift: f32, rows: usize| {
+            let mut out = header.encode().to_vec();
+            for (row, pixels) in records.iter().take(rows) {
+                let mut pixels = pixels.clone();
+                for p in &mut pixels {
+                    for c in &mut p.candidates {
+                        c.column += shift;
+                    }
+                }
+                let mut record = vec![0; record_len(&pixels)];
+                encode_record(&header, *row, &pixels, &mut record).unwrap();
+                out.extend_from_slice(&record);
+            }
+            out
+        };
+        assert!(scene.check(&write(0.0, 4), 0.5).unwrap().passes(h));
+        let off = scene.check(&write(0.6, 4), 0.5).unwrap();
+        assert!(!off.passes(h) && off.direct_found == 0, "{off}");
+        assert!(!scene.check(&write(0.0, 0), 0.5).unwrap().passes(h));
+        assert!(!scene.check(&write(0.0, 3), 0.5).unwrap().passes(h));
     }
 
     #[test]

@@ -7,9 +7,11 @@
 //!
 //! Runs when `qemu-system-arm` is on PATH (or `$QEMU`) and the ARM ELF
 //! (`$FW_ELF`, default `firmware/target/armv7a-none-eabihf/release/fsm-firmware`, built by
-//! `scripts/build-arm.sh`) exists and is newer than every source it is built from; otherwise it
-//! prints `SKIP ...` on stderr, uncaptured, and passes. `scripts/ci-arm.sh` runs it after
-//! building the ELF and fails if it skipped.
+//! `scripts/build-arm.sh`) exists and is newer than every source it is built from (sources,
+//! manifests, `build.rs`, the linker script, `Cargo.lock`); otherwise it prints `SKIP ...` on
+//! stderr, uncaptured, and passes — unless `FW_REQUIRE_QEMU=1` (set by `.ci/run` and
+//! `scripts/ci-arm.sh`, which build the ELF first): then a missing QEMU or a missing or stale
+//! ELF fails the test.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -33,21 +35,25 @@ fn say(msg: &str) {
     let _ = writeln!(std::io::stderr().lock(), "{msg}");
 }
 
-fn newest_source(dirs: &[PathBuf]) -> (SystemTime, PathBuf) {
+/// The newest of `paths`: files given count whatever their name, files inside folders given
+/// when they are Rust sources, manifests or linker scripts.
+fn newest_source(paths: &[PathBuf]) -> (SystemTime, PathBuf) {
     let mut newest = (SystemTime::UNIX_EPOCH, PathBuf::new());
-    let mut stack: Vec<PathBuf> = dirs.to_vec();
-    while let Some(p) = stack.pop() {
+    let mut stack: Vec<(PathBuf, bool)> = paths.iter().map(|p| (p.clone(), true)).collect();
+    while let Some((p, given)) = stack.pop() {
         let Ok(meta) = std::fs::metadata(&p) else {
             continue;
         };
         if meta.is_dir() {
             if let Ok(entries) = std::fs::read_dir(&p) {
-                stack.extend(entries.flatten().map(|e| e.path()));
+                stack.extend(entries.flatten().map(|e| (e.path(), false)));
             }
-        } else if matches!(
-            p.extension().and_then(|e| e.to_str()),
-            Some("rs" | "toml" | "x")
-        ) {
+        } else if given
+            || matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("rs" | "toml" | "x")
+            )
+        {
             if let Ok(t) = meta.modified() {
                 if t > newest.0 {
                     newest = (t, p);
@@ -81,14 +87,15 @@ fn setup() -> Result<(PathBuf, String), String> {
                 elf.display()
             )
         })?;
-    let core = fw
-        .parent()
-        .expect("firmware/ is in the workspace")
-        .join("core");
+    let root = fw.parent().expect("firmware/ is in the workspace");
+    let core = root.join("core");
     let (newest, path) = newest_source(&[
         fw.join("src"),
         fw.join("Cargo.toml"),
+        fw.join("build.rs"),
         fw.join("link.x"),
+        root.join("Cargo.lock"),
+        root.join("Cargo.toml"),
         fw.join("protocol/src"),
         fw.join("protocol/Cargo.toml"),
         core.join("src"),
@@ -142,6 +149,9 @@ fn run_firmware(
 fn firmware_under_qemu_matches_the_host_decode() {
     let (elf, _qemu) = match setup() {
         Ok(s) => s,
+        Err(why) if std::env::var_os("FW_REQUIRE_QEMU").is_some_and(|v| v == "1") => {
+            panic!("FW_REQUIRE_QEMU=1, but the cross-check cannot run: {why}")
+        }
         Err(why) => {
             say(&format!(
                 "SKIP firmware_under_qemu_matches_the_host_decode: {why}"

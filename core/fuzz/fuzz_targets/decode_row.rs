@@ -1,7 +1,8 @@
 //! The line decoder on arbitrary samples, plans and bit depths: it never panics, every
 //! candidate it reports is finite, positive and inside the projector, and the row decoded the
 //! way this CPU decodes it fastest (`decode_row`) equals the row decoded one lane at a time,
-//! as the camera does.
+//! as the camera does. Plans: small BFSM and EFSM ones, CLEAN and the cosine search, and the
+//! paper's BFSM and two-group EFSM; rows of up to 2025 pixels.
 #![no_main]
 
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan, Window};
@@ -20,7 +21,7 @@ fuzz_target!(|data: &[u8]| {
     if data.len() < 4 {
         return;
     }
-    let mut plan = match data[0] % 7 {
+    let mut plan = match data[0] % 9 {
         0 => ScanPlan::efsm(128, 16, GroupCount::Two),
         1 => ScanPlan::efsm(96, 32, GroupCount::One),
         2 => {
@@ -31,12 +32,20 @@ fuzz_target!(|data: &[u8]| {
         3 => ScanPlan::paper_efsm(GroupCount::One),
         4 => bfsm(128),
         5 => bfsm(97),
-        _ => bfsm(128).with_clean(),
+        6 => bfsm(128).with_clean(),
+        // The paper's own plans: 768 columns (a 1536-point transform: radix 3 over 512).
+        7 => ScanPlan::paper_bfsm(),
+        _ => ScanPlan::paper_efsm(GroupCount::Two),
     };
     plan.decoding.max_peaks = 1 + data[1] % 8;
     let bits = 1 + data[2] % 16;
-    // 1 to 19 pixels: every lane count ends with a partial chunk somewhere.
-    let width = 1 + (data[3] % 19) as usize;
+    // Mostly 1 to 19 pixels: every lane count ends with a partial chunk somewhere; one input
+    // in eight a camera's row (320 to 2025 pixels; the firmware takes 2048), the samples repeated.
+    let width = if data[3] >= 224 {
+        320 + (data[3] as usize - 224) * 55
+    } else {
+        1 + (data[3] % 19) as usize
+    };
     let samples: Vec<u16> = data[4..]
         .chunks_exact(2)
         .map(|b| u16::from_le_bytes([b[0], b[1]]))
