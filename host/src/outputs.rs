@@ -7,7 +7,10 @@
 //! - SIGINT, SIGTERM and SIGHUP: [`remove_unfinished_on_signal`] (called by `fsm` first)
 //!   removes this process's staged outputs, then exits with 128 + the signal's number;
 //! - a `kill -9` or a power cut: the next output staged in the same folder removes the
-//!   staged outputs whose process is no longer running, and says so on stderr.
+//!   staged outputs whose process is no longer running, and says so on stderr. "Running"
+//!   means `/proc/PID` exists (Linux): on a folder shared with other machines, an output
+//!   another host is staging would look abandoned, so do not point two machines' runs at
+//!   one folder at once.
 
 use std::ffi::OsString;
 use std::fs;
