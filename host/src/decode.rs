@@ -236,6 +236,7 @@ pub fn decode_batches(
             let d = match pending.remove(&next_row) {
                 Some(d) => d,
                 None if given_up.remove(&next_row) || finish => {
+                    progress.advance(1);
                     summary.rows_without_data.push(next_row);
                     row_without_data(&header, next_row, width)?
                 }
