@@ -296,21 +296,7 @@ pub fn decode_batches(
 fn row_without_data(header: &CandidateHeader, row: u32, width: u32) -> Result<DecodedRow> {
     let mut pixel = HostCandidates::new();
     pixel.flags.insert(PixelFlags::NO_DATA);
-    let pixels = vec![pixel; width as usize];
-    let mut record = Vec::new();
-    candidate_file::encode_row(header, row, &pixels, &mut record)
-        .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
-    Ok(DecodedRow {
-        row,
-        record,
-        strongest: vec![f32::NAN; width as usize],
-        lit_pixels: 0,
-        candidates: 0,
-        saturated_pixels: 0,
-        truncated_pixels: 0,
-        aliased_pixels: 0,
-        unresolved_pixels: 0,
-    })
+    decoded_row(header, row, &vec![pixel; width as usize])
 }
 
 fn decode_row(
@@ -331,6 +317,15 @@ fn decode_row(
     decoder
         .decode_row(&input, scratch, pixels)
         .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
+    decoded_row(header, row, pixels)
+}
+
+/// Row `row`'s candidate record, strongest columns and counts, from its pixels.
+fn decoded_row(
+    header: &CandidateHeader,
+    row: u32,
+    pixels: &[HostCandidates],
+) -> Result<DecodedRow> {
     let mut record = Vec::new();
     candidate_file::encode_row(header, row, pixels, &mut record)
         .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
@@ -345,7 +340,7 @@ fn decode_row(
         aliased_pixels: 0,
         unresolved_pixels: 0,
     };
-    for p in pixels.iter() {
+    for p in pixels {
         decoded
             .strongest
             .push(p.strongest().map_or(f32::NAN, |c| c.column));
