@@ -7,8 +7,8 @@
 # seed is fixed (FUZZ_SEED, default 1) so a CI run can be replayed; set it to 0 for libFuzzer's
 # own random seed. Fails on the first target that does not build, exits non-zero, leaves a
 # crash in artifacts/ or ran no input, and when the crate lists no target at all: a fuzz step
-# that fuzzed nothing is a failure, not a pass. Ends with one line per target: runs, corpus
-# size, crashes.
+# that fuzzed nothing is a failure, not a pass. Runs FUZZ_JOBS targets at a time (default: one
+# per core). Ends with one line per target: runs, corpus size, crashes.
 # Usage: core/fuzz/run.sh [seconds] [fuzz-crate-dir]
 set -euo pipefail
 seconds=${1:-20}
@@ -30,23 +30,45 @@ if [ -z "$targets" ]; then
     echo "fuzz: $where lists no fuzz target" >&2
     exit 1
 fi
-log=$(mktemp)
-trap 'rm -f "$log"' EXIT
+# Two targets at a time by default (FUZZ_JOBS): libFuzzer runs one process per target, so on the
+# 2-core machine this halves the wall time and not one target's seconds.
+jobs=${FUZZ_JOBS:-$(nproc 2>/dev/null || echo 1)}
+[[ "$jobs" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz: FUZZ_JOBS must be a positive integer, not '$jobs'" >&2; exit 2; }
+logs=$(mktemp -d)
+trap 'rm -rf "$logs"' EXIT
+# fuzz_one TARGET: runs it, its output in $logs/TARGET.log, its exit status in $logs/TARGET.status.
+fuzz_one() {
+    local target=$1 status=0
+    mkdir -p "corpus/$target"
+    local inputs=("corpus/$target")
+    [ -d "seeds/$target" ] && inputs+=("seeds/$target")
+    "${fuzz[@]}" run "$target" "${inputs[@]}" -- \
+        -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" >"$logs/$target.log" 2>&1 || status=$?
+    echo "$status" >"$logs/$target.status"
+}
+running=0
+for target in $targets; do
+    if [ "$running" -ge "$jobs" ]; then
+        wait -n || true
+        running=$((running - 1))
+    fi
+    echo "== fuzz $target for ${seconds}s"
+    fuzz_one "$target" &
+    running=$((running + 1))
+done
+wait
+# Judged in the listed order, so that the first failing target is reported the same way each run.
 summary=()
 for target in $targets; do
-    echo "== fuzz $target for ${seconds}s"
-    mkdir -p "corpus/$target"
-    inputs=("corpus/$target")
-    [ -d "seeds/$target" ] && inputs+=("seeds/$target")
-    status=0
-    "${fuzz[@]}" run "$target" "${inputs[@]}" -- \
-        -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" >"$log" 2>&1 || status=$?
+    log="$logs/$target.log"
+    status=$(cat "$logs/$target.status" 2>/dev/null || echo "none")
+    echo "== $target"
     grep -E '^Done|panicked|ERROR|SUMMARY' "$log" || true
     if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
         echo "fuzz $target found a crash: $where/artifacts/$target" >&2
         exit 1
     fi
-    if [ "$status" -ne 0 ]; then
+    if [ "$status" != 0 ]; then
         tail -n 20 "$log" >&2
         echo "fuzz $target failed (exit status $status)" >&2
         exit 1
@@ -60,5 +82,5 @@ for target in $targets; do
     fi
     summary+=("$target: $runs runs in ${seconds} s, corpus $(ls "corpus/$target" | wc -l) inputs, 0 crashes")
 done
-echo "== fuzz $where: ${#summary[@]} targets"
+echo "== fuzz $where: ${#summary[@]} targets, $jobs at a time"
 printf '  %s\n' "${summary[@]}"

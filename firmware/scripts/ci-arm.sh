@@ -47,10 +47,10 @@ ELF="$WORK/fsm-firmware.elf"
 ok "build-arm.sh -> $(basename "$ELF")"
 
 # Host tools (scene, decode, compare), built once.
-"$HOST_CARGO" build -q --release --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
+"$HOST_CARGO" build -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
 TARGET_DIR="$("$HOST_CARGO" metadata --format-version 1 --no-deps --manifest-path "$FW_DIR/Cargo.toml" \
     | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')"
-TOOL="$TARGET_DIR/release/fsm-firmware"
+TOOL="$TARGET_DIR/debug/fsm-firmware"
 
 cd "$WORK"
 

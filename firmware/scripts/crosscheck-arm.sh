@@ -52,13 +52,14 @@ else
     trap 'rm -rf "$WORK"' EXIT
 fi
 
-# The host tools (scene, decode, compare): rustup's cargo, the workspace's own target dir.
+# The host tools (scene, decode, compare): rustup's cargo, the workspace's own target dir and its
+# one profile (dev), so `cargo test --workspace` has built them already.
 HOST_CARGO="$(command -v cargo)"
 case "$HOST_CARGO" in /usr/bin/cargo) [ -x "$HOME/.cargo/bin/cargo" ] && HOST_CARGO="$HOME/.cargo/bin/cargo" ;; esac
-"$HOST_CARGO" build -q --release --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
+"$HOST_CARGO" build -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
 TARGET_DIR="$("$HOST_CARGO" metadata --format-version 1 --no-deps --manifest-path "$FW_DIR/Cargo.toml" \
     | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')"
-TOOL="$TARGET_DIR/release/fsm-firmware"
+TOOL="$TARGET_DIR/debug/fsm-firmware"
 
 if [ -z "${FW_ELF:-}" ]; then
     "$S/build-arm.sh" >"$WORK/build.log" 2>&1 || { cat "$WORK/build.log"; bad "build-arm.sh"; echo "$pass passed, $fail failed"; exit 1; }
