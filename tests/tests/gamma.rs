@@ -16,13 +16,13 @@
 //!    accuracy.
 //!
 //! A band of 8 rows of the 320 × 240 bench keeps it to a few seconds:
-//! `cargo test -p fsm-sim --test gamma -- --nocapture` prints the measured numbers.
+//! `cargo test -p fsm-tests --test gamma -- --nocapture` prints the measured numbers.
 
 use std::sync::Arc;
 
 use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
-use fsm_host::patterns::pattern_row;
-use fsm_host::projector_response::{estimate, grey_level_codes, ProjectorResponse};
+use fsm_io::patterns::pattern_row;
+use fsm_io::projector_response::{estimate, grey_level_codes, ProjectorResponse};
 use fsm_sim::capture::{DrivenCodes, UniformLevels};
 use fsm_sim::{
     Capture, LightTransport, PatternSequence, PixelTruth, Scene, Sensor, SurfaceClass, System,

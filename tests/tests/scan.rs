@@ -4,7 +4,7 @@
 //! the simulator's ground truth and with each other (paper Fig. 9).
 //!
 //! The default run scans a band of rows across the mirror's reflection; the whole image is
-//! `cargo test -p fsm-sim --release --test scan -- --ignored --nocapture`. The figures print
+//! `cargo test -p fsm-tests --release --test scan -- --ignored --nocapture`. The figures print
 //! with `--nocapture`.
 
 mod support;
@@ -13,16 +13,12 @@ use std::ops::Range;
 use std::sync::Arc;
 
 use fsm_core::{GroupCount, PhaseShiftPlan, ScanPlan};
-use fsm_scan::decoded;
-use fsm_scan::metrics::{compare, Comparison, Truth};
+use fsm_scan::decoded::Method;
+use fsm_scan::metrics::Comparison;
 use fsm_scan::{SelectionParams, Surface};
-use fsm_sim::{Capture, LightTransport, PathKind, PixelTruth, Sensor, SurfaceClass, System};
+use fsm_sim::comparison;
+use fsm_sim::{LightTransport, PathKind, PixelTruth, Sensor, System};
 use support::{scan_capture, transport};
-
-enum Method {
-    Fsm(ScanPlan),
-    PhaseShift(PhaseShiftPlan),
-}
 
 /// A scan of one scene with one method: the surface and the truth of its pixels.
 struct Scanned {
@@ -34,47 +30,22 @@ struct Scanned {
 /// limits, triangulates and selects — the library path `fsm scan` and `fsm demo` take.
 fn scan(
     transport: &Arc<LightTransport>,
-    method: &Method,
+    method: Method<'_>,
     system: &System,
     sensor: &Sensor,
     seed: u64,
 ) -> Scanned {
-    let (capture, decoding) = match method {
-        Method::Fsm(plan) => (
-            Capture::new(transport.clone(), plan, system, *sensor, seed),
-            decoded::Method::Fsm(plan),
-        ),
-        Method::PhaseShift(plan) => (
-            Capture::new(transport.clone(), plan, system, *sensor, seed),
-            decoded::Method::PhaseShift(plan),
-        ),
-    };
-    let capture = capture.expect("capture");
+    let capture =
+        comparison::capture_of(method, transport, system, *sensor, seed).expect("capture");
     let params = SelectionParams::for_calibration(&system.calibration);
-    let (surface, truth) = scan_capture(&capture, decoding, system, &params);
+    let (surface, truth) = scan_capture(&capture, method, system, &params);
     Scanned { surface, truth }
 }
 
 /// The issue's figures of one method: the Fig. 9 comparison of its scans with and without the
 /// mirror, over the plane's pixels away from edges.
 fn figures(with: &Scanned, without: &Scanned) -> Comparison {
-    let direct_column: Vec<f64> = with.truth.iter().map(|t| t.direct_column).collect();
-    let interreflection: Vec<bool> = with
-        .truth
-        .iter()
-        .map(|t| t.is_interreflection() && !t.edge)
-        .collect();
-    let surface: Vec<bool> = with
-        .truth
-        .iter()
-        .map(|t| t.class == SurfaceClass::Diffuse && !t.edge && t.direct_column.is_finite())
-        .collect();
-    let truth = Truth {
-        direct_column: &direct_column,
-        interreflection: &interreflection,
-        surface: &surface,
-    };
-    compare(&with.surface, &without.surface, &truth)
+    comparison::figures(&with.surface, &without.surface, &with.truth)
 }
 
 fn report(name: &str, f: &Comparison, standoff_mm: f64) {
@@ -119,14 +90,21 @@ fn compare_methods(rows: Range<u32>) {
         transport("plane_mirror", &system, rows.clone()),
         transport("plane_mirror_covered", &system, rows.clone()),
     );
-    let bfsm = Method::Fsm(ScanPlan::paper_bfsm());
-    let efsm = Method::Fsm(ScanPlan::paper_efsm(GroupCount::Two));
-    let ps = Method::PhaseShift(PhaseShiftPlan::paper());
+    let (bfsm, efsm, ps) = (
+        ScanPlan::paper_bfsm(),
+        ScanPlan::paper_efsm(GroupCount::Two),
+        PhaseShiftPlan::paper(),
+    );
+    let (bfsm, efsm, ps) = (
+        Method::Fsm(&bfsm),
+        Method::Fsm(&efsm),
+        Method::PhaseShift(&ps),
+    );
     let standoff_mm = 500.0;
     let sensor = Sensor::default();
     let mut all = Vec::new();
     let mut truth = Vec::new();
-    for (name, method) in [("BFSM", &bfsm), ("EFSM", &efsm), ("PS", &ps)] {
+    for (name, method) in [("BFSM", bfsm), ("EFSM", efsm), ("PS", ps)] {
         let with = scan(&mirror, method, &system, &sensor, 1);
         let without = scan(&covered, method, &system, &sensor, 2);
         let f = figures(&with, &without);
@@ -175,8 +153,8 @@ fn compare_methods(rows: Range<u32>) {
         shot_noise: false,
         ..sensor
     };
-    let with = scan(&mirror, &bfsm, &system, &read_noise_only, 3);
-    let without = scan(&covered, &bfsm, &system, &read_noise_only, 4);
+    let with = scan(&mirror, bfsm, &system, &read_noise_only, 3);
+    let without = scan(&covered, bfsm, &system, &read_noise_only, 4);
     let f = figures(&with, &without);
     let ratio = f.interreflection.rms_columns / f.interreflection_covered.rms_columns;
     println!("BFSM with read noise only: interreflection / covered column RMS {ratio:.3}");
@@ -291,11 +269,12 @@ fn vgroove(rows: Range<u32>) {
         ..Sensor::default()
     };
     let mut measured = Vec::new();
+    let (bfsm, ps) = (ScanPlan::paper_bfsm(), PhaseShiftPlan::paper());
     for (name, method) in [
-        ("BFSM", Method::Fsm(ScanPlan::paper_bfsm())),
-        ("PS", Method::PhaseShift(PhaseShiftPlan::paper())),
+        ("BFSM", Method::Fsm(&bfsm)),
+        ("PS", Method::PhaseShift(&ps)),
     ] {
-        let s = scan(&t, &method, &system, &sensor, 5);
+        let s = scan(&t, method, &system, &sensor, 5);
         let (near, far) = (point_rms_mm(&s, interreflection), point_rms_mm(&s, weak));
         println!(
             "vgroove {name}: point RMS {near:.4} mm where the other facet adds over 20% light, \
@@ -326,7 +305,7 @@ fn bfsm_efsm_and_ps_on_a_band_across_the_mirror() {
 }
 
 #[test]
-#[ignore = "whole 320 x 240 image: cargo test -p fsm-sim --release --test scan -- --ignored --nocapture"]
+#[ignore = "whole 320 x 240 image: cargo test -p fsm-tests --release --test scan -- --ignored --nocapture"]
 fn bfsm_efsm_and_ps_on_the_whole_image() {
     compare_methods(0..240);
 }

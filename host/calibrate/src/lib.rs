@@ -8,8 +8,10 @@ pub mod calibrate;
 pub mod corners;
 pub mod dense;
 pub mod homography;
+pub mod pose_folder;
 pub mod projector;
 pub mod refine;
+pub mod report;
 pub mod zhang;
 
 pub use calibrate::{

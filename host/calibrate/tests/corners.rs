@@ -16,12 +16,8 @@ use nalgebra::Point2;
 use proptest::prelude::*;
 
 /// The bench target as fsm-calibrate describes it.
-fn board_of(sim: &target::Checkerboard) -> Checkerboard {
-    Checkerboard {
-        inner_columns: sim.inner_columns,
-        inner_rows: sim.inner_rows,
-        square_mm: sim.square_mm,
-    }
+fn board_of(sim: &target::PrintedBoard) -> Checkerboard {
+    sim.grid
 }
 
 /// Rays per pixel side for the accuracy tests: 8 × 8 footprint samples (the default transport
@@ -79,7 +75,7 @@ fn render_and_detect(
     seed: u64,
     supersampling: u32,
 ) -> (Vec<Point2<f64>>, Vec<Point2<f64>>) {
-    let sim_board = target::Checkerboard::bench();
+    let sim_board = target::PrintedBoard::bench();
     let (name, centre, yaw, pitch, roll) = *spec;
     let pose = BoardPose::tilted(&sim_board, centre, yaw, pitch, roll);
     let truth: Vec<Point2<f64>> = target::true_corner_pixels(system, &sim_board, &pose)
@@ -195,7 +191,7 @@ fn corners_over_many_poses_and_two_cameras() {
                 let roll = (k as f64 * 47.0) % 360.0;
                 let spec: PoseSpec = ("", [0.0, 0.0, z], yaw, pitch, roll);
                 // Skip poses that put corners off the image (rolled boards near the edge).
-                let sim_board = target::Checkerboard::bench();
+                let sim_board = target::PrintedBoard::bench();
                 let pose = BoardPose::tilted(&sim_board, spec.1, yaw, pitch, roll);
                 let cam = &system.calibration.camera;
                 let inside = target::true_corner_pixels(&system, &sim_board, &pose)
@@ -240,7 +236,7 @@ fn corners_over_many_poses_and_two_cameras() {
 #[test]
 fn a_board_partly_out_of_view_is_named() {
     let system = System::bench();
-    let sim_board = target::Checkerboard::bench();
+    let sim_board = target::PrintedBoard::bench();
     // Shifted right so that its last columns of corners leave the image.
     let pose = BoardPose::tilted(&sim_board, [80.0, 0.0, 520.0], 0.0, 0.0, 4.0);
     let cam = &system.calibration.camera;
@@ -276,7 +272,7 @@ fn a_board_partly_out_of_view_is_named() {
 #[test]
 fn no_board_is_named() {
     let system = System::bench();
-    let board = board_of(&target::Checkerboard::bench());
+    let board = board_of(&target::PrintedBoard::bench());
     // A plain diffuse plane: light, but no corners.
     let scene = Scene::preset("plane").unwrap();
     let image = target::white_frame(&scene, &system, Some(&Sensor::default()), 4, 2).unwrap();
@@ -302,7 +298,7 @@ fn no_board_is_named() {
 #[test]
 fn a_board_of_another_size_is_not_taken_for_the_target() {
     let system = System::bench();
-    let sim_board = target::Checkerboard::bench();
+    let sim_board = target::PrintedBoard::bench();
     let pose = BoardPose::tilted(&sim_board, [0.0, 0.0, 520.0], 15.0, 0.0, 5.0);
     let scene = Scene::checkerboard(&sim_board, &pose);
     let image = target::white_frame(&scene, &system, None, 0, 4).unwrap();
@@ -335,7 +331,7 @@ fn a_board_of_another_size_is_not_taken_for_the_target() {
 
 #[test]
 fn bad_inputs_are_named() {
-    let board = board_of(&target::Checkerboard::bench());
+    let board = board_of(&target::PrintedBoard::bench());
     assert_eq!(
         detect(&[0.0; 10], 4, 3, &board).unwrap_err(),
         CornerError::ImageSize {
@@ -415,7 +411,7 @@ fn targets_dir() -> PathBuf {
 fn the_default_target_file_is_the_simulated_bench_target() {
     let path = targets_dir().join("checkerboard-9x6-20mm.toml");
     let board = Checkerboard::read(&path).unwrap();
-    assert_eq!(board, board_of(&target::Checkerboard::bench()));
+    assert_eq!(board, board_of(&target::PrintedBoard::bench()));
     let corners = board.corners_mm();
     assert_eq!(corners.len(), 54);
     assert_eq!(corners[0], Point2::new(0.0, 0.0));

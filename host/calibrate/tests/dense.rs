@@ -33,7 +33,7 @@ impl Normal {
 fn observations(keep: impl Fn(Point2<f64>, &[Point2<f64>]) -> bool) -> Vec<PoseObservation> {
     let system = System::bench();
     let truth = system.calibration;
-    let board = target::Checkerboard::bench();
+    let board = target::PrintedBoard::bench();
     let (w, h) = (system.width() as usize, system.height() as usize);
     let (lo, hi) = board.outline_board_mm();
     let mut noise = Normal(0x5eed);
@@ -83,12 +83,7 @@ fn observations(keep: impl Fn(Point2<f64>, &[Point2<f64>]) -> bool) -> Vec<PoseO
 }
 
 fn board() -> Checkerboard {
-    let b = target::Checkerboard::bench();
-    Checkerboard {
-        inner_columns: b.inner_columns,
-        inner_rows: b.inner_rows,
-        square_mm: b.square_mm,
-    }
+    target::PrintedBoard::bench().grid
 }
 
 /// With whole column maps, the joint refinement uses hundreds of samples per pose, and their

@@ -110,14 +110,9 @@ struct Rendered {
     true_columns: Vec<f64>,
 }
 
-fn board() -> (target::Checkerboard, Checkerboard) {
-    let sim_board = target::Checkerboard::bench();
-    let board = Checkerboard {
-        inner_columns: sim_board.inner_columns,
-        inner_rows: sim_board.inner_rows,
-        square_mm: sim_board.square_mm,
-    };
-    (sim_board, board)
+fn board() -> (target::PrintedBoard, Checkerboard) {
+    let sim_board = target::PrintedBoard::bench();
+    (sim_board, sim_board.grid)
 }
 
 /// The bench (`System::bench`, 320 × 240) or the bench with a camera `width` pixels wide and

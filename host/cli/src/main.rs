@@ -1,5 +1,5 @@
 //! `fsm`: the command-line tool of the Frequency Shift Method scanner. A thin layer over
-//! `fsm-host`: each subcommand parses its arguments and calls the library.
+//! `fsm-io`: each subcommand parses its arguments and calls the library.
 // The arguments' doc comments are clap's `--help` text, written for a terminal: `<method>/`
 // and `[section]` there are words, not HTML or links.
 #![allow(rustdoc::invalid_html_tags, rustdoc::broken_intra_doc_links)]
@@ -43,7 +43,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    if let Err(e) = fsm_host::outputs::remove_unfinished_on_signal() {
+    if let Err(e) = fsm_io::outputs::remove_unfinished_on_signal() {
         eprintln!("fsm: warning: interrupted runs may leave hidden .partial- outputs: {e}");
     }
     let result = match cli.command {

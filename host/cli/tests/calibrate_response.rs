@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
 use fsm_geometry::file::{CalibrationFile, ProjectorResponseSection};
-use fsm_host::image_files;
-use fsm_host::projector_response::{GreyLevelManifest, ProjectorResponse, GREY_LEVELS_MANIFEST};
+use fsm_io::image_files;
+use fsm_io::projector_response::{GreyLevelManifest, ProjectorResponse, GREY_LEVELS_MANIFEST};
 
 const GAMMA: f64 = 2.2;
 const W: u32 = 48;

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use assert_cmd::Command;
 use fsm_firmware::emulator::Emulator;
-use fsm_host::candidate_file::CANDIDATE_FILE_NAME;
+use fsm_io::candidate_file::CANDIDATE_FILE_NAME;
 
 fn fsm() -> Command {
     Command::cargo_bin("fsm").unwrap()

@@ -3,13 +3,13 @@
 //! input — wrong image count, size or bit depth, a foreign plan, a corrupted dump — exits
 //! non-zero with a message naming what and where, leaving no output behind.
 
-#[path = "../../tests/support/mod.rs"]
+#[path = "../../io/tests/support/mod.rs"]
 mod support;
 
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
-use fsm_host::candidate_file::{CandidateReader, HostCandidates, CANDIDATE_FILE_NAME};
+use fsm_io::candidate_file::{CandidateReader, HostCandidates, CANDIDATE_FILE_NAME};
 use support::{entries, FlatWall};
 
 fn fsm() -> Command {
@@ -243,11 +243,11 @@ fn wrong_image_count_is_refused() {
 fn wrong_image_size_or_depth_is_refused_naming_the_frame() {
     let scan = scan();
     let frame = capture_file(&scan, 77);
-    let (info, data) = fsm_host::image_files::read_image(&frame).unwrap();
+    let (info, data) = fsm_io::image_files::read_image(&frame).unwrap();
     // One row short.
     let file = std::fs::File::create(&frame).unwrap();
     let short = &data[..(info.width * (info.height - 1)) as usize];
-    fsm_host::image_files::write_png_gray16(file, info.width, info.height - 1, short).unwrap();
+    fsm_io::image_files::write_png_gray16(file, info.width, info.height - 1, short).unwrap();
     decode_fails(
         &scan,
         &["--images", s(&scan.captures)],
@@ -256,7 +256,7 @@ fn wrong_image_size_or_depth_is_refused_naming_the_frame() {
     // 8-bit among 16-bit images.
     let file = std::fs::File::create(&frame).unwrap();
     let bytes: Vec<u8> = data.iter().map(|&v| (v >> 4) as u8).collect();
-    fsm_host::image_files::write_png_gray8(file, info.width, info.height, &bytes).unwrap();
+    fsm_io::image_files::write_png_gray8(file, info.width, info.height, &bytes).unwrap();
     decode_fails(
         &scan,
         &["--images", s(&scan.captures)],

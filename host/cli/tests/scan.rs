@@ -432,11 +432,11 @@ fn interrupted_runs_leave_nothing_behind() {
 }
 
 /// Every row of a candidate file, each pixel's candidates and flags.
-fn candidate_rows(path: &Path) -> Vec<Vec<fsm_host::candidate_file::HostCandidates>> {
-    let mut reader = fsm_host::candidate_file::CandidateReader::open(path).unwrap();
+fn candidate_rows(path: &Path) -> Vec<Vec<fsm_io::candidate_file::HostCandidates>> {
+    let mut reader = fsm_io::candidate_file::CandidateReader::open(path).unwrap();
     let width = reader.header().width as usize;
     let mut rows = Vec::new();
-    let mut row = vec![fsm_host::candidate_file::HostCandidates::new(); width];
+    let mut row = vec![fsm_io::candidate_file::HostCandidates::new(); width];
     while reader.next_row(&mut row).unwrap().is_some() {
         rows.push(row.clone());
     }
@@ -559,7 +559,7 @@ fn a_corrupted_row_costs_that_row_only_with_skip_bad_rows() {
     assert_eq!(records.len(), 1, "{summary}");
     assert!(records[0].as_str().unwrap().contains("CRC"), "{summary}");
     let depth = |dir: &Path| {
-        let (_, _, d) = fsm_host::image_files::read_tiff_f32(&dir.join("depth.tiff")).unwrap();
+        let (_, _, d) = fsm_io::image_files::read_tiff_f32(&dir.join("depth.tiff")).unwrap();
         d
     };
     let (clean_depth, skipped_depth) = (depth(&clean_scan), depth(&skipped_scan));

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use fsm_core::wire::candidates::{CandidateHeader, RECORD_OVERHEAD};
 use fsm_core::wire::crc32;
-use fsm_host::candidate_file::{
+use fsm_io::candidate_file::{
     CandidateFileError, CandidateReader, CandidateWriter, HostCandidates,
 };
 use libfuzzer_sys::fuzz_target;

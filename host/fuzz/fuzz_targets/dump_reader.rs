@@ -10,7 +10,7 @@ use std::path::Path;
 
 use fsm_core::wire::crc32;
 use fsm_core::wire::row_dump::RowDumpHeader;
-use fsm_host::dump::{DumpError, DumpReader, DumpWriter};
+use fsm_io::dump::{DumpError, DumpReader, DumpWriter};
 use libfuzzer_sys::fuzz_target;
 
 type Rows = Vec<(u32, Vec<u16>)>;

@@ -2,7 +2,7 @@
 //! has at least 3 levels running from 0 to 1 and writes back to JSON that parses to it.
 #![no_main]
 
-use fsm_host::projector_response::GreyLevelManifest;
+use fsm_io::projector_response::GreyLevelManifest;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

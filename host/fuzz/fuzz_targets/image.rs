@@ -6,7 +6,7 @@
 
 use std::io::Cursor;
 
-use fsm_host::image_files::{self, ImageFormat};
+use fsm_io::image_files::{self, ImageFormat};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -2,7 +2,7 @@
 //! plan that parses is valid and renders, in either syntax, to text that parses back to it.
 #![no_main]
 
-use fsm_host::plan_file::{parse_plan, render_plan, PlanSyntax};
+use fsm_io::plan_file::{parse_plan, render_plan, PlanSyntax};
 use libfuzzer_sys::fuzz_target;
 
 const SYNTAXES: [PlanSyntax; 2] = [PlanSyntax::Toml, PlanSyntax::Json];

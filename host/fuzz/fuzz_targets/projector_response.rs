@@ -3,7 +3,7 @@
 //! back, with any comment, to text that parses to the same response.
 #![no_main]
 
-use fsm_host::projector_response::ProjectorResponse;
+use fsm_io::projector_response::ProjectorResponse;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -5,7 +5,7 @@
 
 use std::io::Cursor;
 
-use fsm_host::image_files;
+use fsm_io::image_files;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -55,9 +55,9 @@
 //! written whole or not at all (temporary name, then rename).
 
 use std::fmt;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+use fsm_io::projector_response::ProjectorResponse;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -189,7 +189,31 @@ pub enum ProjectorResponseSection {
     },
 }
 
+impl From<&ProjectorResponse> for ProjectorResponseSection {
+    fn from(response: &ProjectorResponse) -> ProjectorResponseSection {
+        match response {
+            ProjectorResponse::Gamma(g) => ProjectorResponseSection::Gamma(*g),
+            ProjectorResponse::Table(points) => ProjectorResponseSection::Table {
+                input: points.iter().map(|p| p.0).collect(),
+                output: points.iter().map(|p| p.1).collect(),
+            },
+        }
+    }
+}
+
 impl ProjectorResponseSection {
+    /// The response the section describes (what `fsm patterns --calibration` pre-corrects
+    /// for); the message names the field.
+    pub fn response(&self) -> Result<ProjectorResponse, String> {
+        match self {
+            ProjectorResponseSection::Gamma(g) => ProjectorResponse::from_gamma(*g),
+            ProjectorResponseSection::Table { input, output } => {
+                ProjectorResponse::from_table(input, output)
+            }
+        }
+        .map_err(|e| format!("projector_response: {e}"))
+    }
+
     /// Checks the rules; the message names the field (`projector_response.gamma`, …).
     pub fn validate(&self) -> Result<(), String> {
         match self {
@@ -563,38 +587,18 @@ impl CalibrationFile {
         CalibrationFile::from_toml(text, source)
     }
 
-    /// Writes the file whole or not at all: a temporary file in the same folder, flushed to
-    /// disk, then renamed over `path`.
+    /// Writes the file whole or not at all, with the workspace's one atomic writer
+    /// ([`fsm_io::outputs::write_file`]: staged beside `path`, synced, renamed over it).
     pub fn write(&self, path: &Path) -> Result<(), CalibrationFileError> {
         write_text(path, &self.to_toml())
     }
 }
 
 fn write_text(path: &Path, text: &str) -> Result<(), CalibrationFileError> {
-    let io = |e| CalibrationFileError {
+    fsm_io::outputs::write_file(path, text.as_bytes()).map_err(|e| CalibrationFileError {
         source: path.display().to_string(),
-        kind: CalibrationFileErrorKind::Io(e),
-    };
-    let tmp = temporary_path(path);
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(text.as_bytes())?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io)
-}
-
-/// `dir/.name.tmp-<pid>`: same folder (so rename is atomic), hidden, unique per process.
-fn temporary_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "calibration".into());
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+        kind: CalibrationFileErrorKind::Io(e.into_io_error()),
+    })
 }
 
 #[cfg(test)]

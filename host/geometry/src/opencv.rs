@@ -29,8 +29,7 @@
 //! or recurse without bound (nesting is limited to [`MAX_DEPTH`]).
 
 use std::fmt;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -1815,8 +1814,8 @@ pub fn to_text(calibration: &Calibration, tool: Tool, syntax: Syntax, unit: Leng
     w.finish()
 }
 
-/// Writes `tool`'s file whole or not at all (a temporary file in the same folder, flushed,
-/// then renamed over `path`); the syntax follows the extension (`.yml`, `.yaml`, `.xml`).
+/// Writes `tool`'s file whole or not at all (the workspace's one atomic writer,
+/// [`fsm_io::outputs::write_file`]); the syntax follows the extension (`.yml`, `.yaml`, `.xml`).
 pub fn write(
     calibration: &Calibration,
     tool: Tool,
@@ -1829,31 +1828,8 @@ pub fn write(
     };
     let syntax = Syntax::of_path(path).ok_or_else(|| err(OpenCvErrorKind::OutputName))?;
     let text = to_text(calibration, tool, syntax, unit);
-    write_whole(path, text.as_bytes()).map_err(|e| err(OpenCvErrorKind::Io(e)))
-}
-
-/// Writes `bytes` to a hidden temporary file beside `path`, syncs it and renames it over
-/// `path`; on failure the temporary file is removed and `path` is untouched.
-pub fn write_whole(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let tmp = temporary_path(path);
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
-
-fn temporary_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "calibration".into());
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    fsm_io::outputs::write_file(path, text.as_bytes())
+        .map_err(|e| err(OpenCvErrorKind::Io(e.into_io_error())))
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -5,11 +5,11 @@
 
 use fsm_core::wire::candidates::decode_record;
 use fsm_core::{ColumnRange, Decoder, PhaseShiftPlan, Row, ScanPlan};
-use fsm_host::candidate_file::HostCandidates;
-use fsm_host::capture::Capture;
-use fsm_host::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary};
-use fsm_host::progress::Progress;
-use fsm_host::{Error, Result};
+use fsm_io::candidate_file::HostCandidates;
+use fsm_io::capture::Capture;
+use fsm_io::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary};
+use fsm_io::progress::Progress;
+use fsm_io::{Error, Result};
 use rayon::prelude::*;
 
 /// A decoding method and its plan.
@@ -132,7 +132,7 @@ impl DecodedImage {
     fn take_row(
         &mut self,
         header: &fsm_core::wire::candidates::CandidateHeader,
-        row: fsm_host::decode::DecodedRow,
+        row: fsm_io::decode::DecodedRow,
     ) -> Result<()> {
         let record = decode_record(header, &row.record)
             .map_err(|e| Error::Usage(format!("decoded row {}: {e}", row.row)))?;

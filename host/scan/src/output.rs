@@ -6,10 +6,10 @@
 
 use std::path::Path;
 
-use fsm_host::column_map::viridis_rgb;
-use fsm_host::image_files::{write_png_gray8, write_png_rgb8, write_tiff_f32};
-use fsm_host::outputs::{write_file, StagedFile};
-use fsm_host::{Error, Result};
+use fsm_io::column_map::viridis_rgb;
+use fsm_io::image_files::{write_png_gray8, write_png_rgb8, write_tiff_f32};
+use fsm_io::outputs::{write_file, StagedFile};
+use fsm_io::{Error, Result};
 use serde::Serialize;
 
 use crate::ply::write_ply;
@@ -58,6 +58,56 @@ pub struct ScanSummary {
     pub truth: Option<TruthSummary>,
 }
 
+/// How long each stage of a scan took, seconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StageSeconds {
+    /// Decoding.
+    pub decode: f64,
+    /// Triangulating every candidate.
+    pub triangulate: f64,
+    /// Selecting.
+    pub select: f64,
+}
+
+impl ScanSummary {
+    /// The summary of a scan of `decoded` into `surface` with `params` and `calibration`, the
+    /// decoder's counts taken from its pixels: `method` names the plan (`BFSM`, `EFSM`, `PS`,
+    /// or a comparison's label). No rows without data, no bad records, no truth: a caller that
+    /// has them sets them.
+    pub fn new(
+        method: &str,
+        plan_fingerprint: u64,
+        decoded: &crate::decoded::DecodedImage,
+        surface: &Surface,
+        params: &crate::SelectionParams,
+        calibration: &fsm_geometry::Calibration,
+        seconds: StageSeconds,
+    ) -> ScanSummary {
+        let pixels = &decoded.pixels;
+        let flagged = |flag| pixels.iter().filter(|p| p.flags.contains(flag)).count() as u64;
+        ScanSummary {
+            method: method.to_string(),
+            plan_fingerprint: format!("{plan_fingerprint:016x}"),
+            width: surface.width,
+            height: surface.height,
+            candidates: pixels.iter().map(|p| p.candidates.len() as u64).sum(),
+            aliased_pixels: flagged(fsm_core::PixelFlags::ALIASED),
+            unresolved_pixels: flagged(fsm_core::PixelFlags::UNRESOLVED),
+            candidates_in_volume: surface.candidates,
+            points: surface.points(),
+            no_point: surface.no_point_counts(),
+            rows_without_data: Vec::new(),
+            bad_records: Vec::new(),
+            decode_seconds: seconds.decode,
+            triangulate_seconds: seconds.triangulate,
+            select_seconds: seconds.select,
+            selection: SelectionSummary::of(params),
+            calibration_checksum: format!("{:08x}", calibration.checksum()),
+            truth: None,
+        }
+    }
+}
+
 /// The points against the truth of a simulated capture, as written to `summary.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct TruthSummary {
@@ -89,13 +139,27 @@ pub struct SelectionSummary {
     pub min_quality: f32,
 }
 
+impl SelectionSummary {
+    /// The parameters `params` as written to `summary.json`.
+    pub fn of(params: &crate::SelectionParams) -> SelectionSummary {
+        SelectionSummary {
+            paths: params.paths.count(),
+            epsilon_mm: params.epsilon_mm,
+            beta_per_mm: params.beta_per_mm,
+            drop_aliased: params.drop_aliased,
+            drop_fictitious: params.drop_fictitious,
+            min_quality: params.min_quality,
+        }
+    }
+}
+
 /// Writes every output of a scan into the folder `dir` (a staging folder: the caller commits
 /// it whole).
 pub fn write_scan(dir: &Path, surface: &Surface, summary: &ScanSummary) -> Result<()> {
     let (w, h) = (surface.width as u32, surface.height as u32);
     let encode = |path: &Path| {
         let path = path.to_path_buf();
-        move |e: fsm_host::image_files::ImageError| Error::Encode {
+        move |e: fsm_io::image_files::ImageError| Error::Encode {
             path: path.clone(),
             message: e.0,
         }

@@ -6,8 +6,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
-use fsm_scan::decoded::{self, DecodedImage};
-use fsm_scan::triangulate::column_limits;
+use fsm_scan::decoded;
 use fsm_scan::{SelectionParams, Surface};
 use fsm_sim::{Capture, LightTransport, PixelTruth, Scene, Sensor, System, TransportSettings};
 
@@ -102,40 +101,15 @@ pub fn rms(errors: &[f64]) -> f64 {
 }
 
 /// Decodes every row of `capture` with `method` and the calibration's column limits,
-/// triangulates and selects with `params`: the library path `fsm scan` and `fsm demo` take.
-/// Returns the surface and the truth of its pixels, row-major.
+/// triangulates and selects with `params` ([`fsm_sim::comparison::scan_capture`], the path
+/// `fsm demo` takes). Returns the surface and the truth of its pixels, row-major.
 pub fn scan_capture(
     capture: &Capture,
     method: decoded::Method<'_>,
     system: &System,
     params: &SelectionParams,
 ) -> (Surface, Vec<PixelTruth>) {
-    let width = capture.width() as usize;
-    let rows = capture.rows().start as usize..capture.rows().end as usize;
-    let limits = |y: usize| column_limits(&system.calibration, width, y);
-    let image = DecodedImage::decode_rows(
-        method,
-        width,
-        rows,
-        capture.bit_depth(),
-        Some(&limits),
-        |y| {
-            capture
-                .row(y as u32)
-                .map_err(|e| fsm_host::Error::Usage(e.to_string()))
-        },
-    )
-    .expect("rows decode");
-    let (surface, _) = Surface::reconstruct(&image, &system.calibration, params);
-    let truth = capture
-        .rows()
-        .flat_map(|y| (0..width as u32).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            *capture
-                .ground_truth()
-                .pixel(x, y)
-                .expect("truth of a rendered pixel")
-        })
-        .collect();
-    (surface, truth)
+    let scanned = fsm_sim::comparison::scan_capture(capture, method, system, params)
+        .expect("the capture scans");
+    (scanned.surface, scanned.truth)
 }

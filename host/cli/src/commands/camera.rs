@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use fsm_host::outputs::StagedFile;
-use fsm_host::{Error, Result};
+use fsm_io::outputs::StagedFile;
+use fsm_io::{Error, Result};
 use fsm_protocol::client::{self, Client};
 use fsm_protocol::RowOutput;
 

@@ -2,12 +2,12 @@
 
 use std::path::PathBuf;
 
-use fsm_host::capture::Capture;
-use fsm_host::dump;
-use fsm_host::progress::Progress;
-use fsm_host::Result;
+use fsm_io::capture::Capture;
+use fsm_io::dump;
+use fsm_io::progress::Progress;
+use fsm_io::Result;
 
-use super::BitDepth;
+use super::{BitDepth, MemoryBudget};
 
 /// Convert a stack of captured images into a row dump (the format the camera streams).
 ///
@@ -29,9 +29,8 @@ pub struct Args {
     /// Output dump file.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
-    /// Most captured samples held in memory at once, MiB.
-    #[arg(long, value_name = "MiB", default_value_t = 2048)]
-    memory_budget: u64,
+    #[command(flatten)]
+    memory: MemoryBudget,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -44,7 +43,7 @@ pub fn run(args: Args) -> Result<()> {
         &plan,
         &stack,
         &args.out,
-        super::mebibytes(args.memory_budget),
+        args.memory.bytes(),
         &Progress::stderr(),
     )?;
     eprintln!(

@@ -2,13 +2,13 @@
 
 use std::path::PathBuf;
 
-use fsm_host::candidate_file::CANDIDATE_FILE_NAME;
-use fsm_host::column_map::{COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
-use fsm_host::decode::{self, DecodeOptions};
-use fsm_host::progress::Progress;
-use fsm_host::Result;
+use fsm_io::candidate_file::CANDIDATE_FILE_NAME;
+use fsm_io::column_map::{COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
+use fsm_io::decode;
+use fsm_io::progress::Progress;
+use fsm_io::Result;
 
-use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource};
+use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 
 /// Decode a scan: every projector column that lights each camera pixel.
 ///
@@ -39,13 +39,8 @@ pub struct Args {
     /// Output folder (created; must not exist or be empty, unless --force).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
-    /// Decoding threads (default: one per core).
-    #[arg(long, value_name = "N", default_value_t = 0)]
-    threads: usize,
-    /// Most captured samples held in memory at once, MiB: a stack larger than this is read
-    /// in bands of rows (re-reading the images for each band).
-    #[arg(long, value_name = "MiB", default_value_t = 2048)]
-    memory_budget: u64,
+    #[command(flatten)]
+    decode: DecodeArgs,
     /// Replace the output folder if it exists and is not empty.
     #[arg(long)]
     force: bool,
@@ -56,10 +51,7 @@ pub fn run(args: Args) -> Result<()> {
     let capture = args
         .source
         .open(&plan, &args.bit_depth, args.bad_rows.policy())?;
-    let options = DecodeOptions {
-        memory_budget_bytes: super::mebibytes(args.memory_budget),
-        threads: args.threads,
-    };
+    let options = args.decode.options();
     let summary = decode::decode_to_dir(
         &plan,
         &capture,

@@ -3,9 +3,9 @@
 use std::path::PathBuf;
 
 use fsm_core::Group;
-use fsm_host::capture::BadRows;
-use fsm_host::inspect;
-use fsm_host::Result;
+use fsm_io::capture::BadRows;
+use fsm_io::inspect;
+use fsm_io::Result;
 
 use super::{BitDepth, CaptureSource};
 

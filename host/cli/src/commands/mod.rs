@@ -14,8 +14,9 @@ pub mod simulate;
 use std::path::PathBuf;
 
 use fsm_core::ScanPlan;
-use fsm_host::capture::{BadRows, Capture};
-use fsm_host::{plan_file, Result};
+use fsm_io::capture::{BadRows, Capture};
+use fsm_io::decode::DecodeOptions;
+use fsm_io::{plan_file, Result};
 
 /// Where the captured data is: exactly one of a stack of images or a row dump.
 #[derive(clap::Args, Debug)]
@@ -53,7 +54,7 @@ impl BadRowsArg {
 }
 
 /// Tells what a decode skipped ([`BadRows::Skip`]), on stderr.
-pub fn report_bad_rows(summary: &fsm_host::decode::DecodeSummary) {
+pub fn report_bad_rows(summary: &fsm_io::decode::DecodeSummary) {
     if summary.rows_without_data.is_empty() && summary.bad_records.is_empty() {
         return;
     }
@@ -87,6 +88,43 @@ fn row_list(rows: &[u32]) -> String {
     parts.join(", ")
 }
 
+/// How much of a capture is held in memory (`fsm convert`, and every decoding command).
+#[derive(clap::Args, Debug)]
+pub struct MemoryBudget {
+    /// Most captured samples held in memory at once, MiB: a stack larger than this is read
+    /// in bands of rows (re-reading the images for each band).
+    #[arg(long, value_name = "MiB", default_value_t = 2048)]
+    pub memory_budget: u64,
+}
+
+impl MemoryBudget {
+    /// The budget in bytes.
+    pub fn bytes(&self) -> u64 {
+        self.memory_budget.saturating_mul(1 << 20)
+    }
+}
+
+/// How a capture is decoded: threads and memory (`fsm decode`, `fsm scan`, `fsm calibrate
+/// target`).
+#[derive(clap::Args, Debug)]
+pub struct DecodeArgs {
+    /// Decoding threads (default: one per core).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub threads: usize,
+    #[command(flatten)]
+    pub memory: MemoryBudget,
+}
+
+impl DecodeArgs {
+    /// The decoding pipeline's options.
+    pub fn options(&self) -> DecodeOptions {
+        DecodeOptions {
+            memory_budget_bytes: self.memory.bytes(),
+            threads: self.threads,
+        }
+    }
+}
+
 /// Sensor bit depth option.
 #[derive(clap::Args, Debug)]
 pub struct BitDepth {
@@ -116,11 +154,6 @@ impl CaptureSource {
 /// Reads the plan file.
 pub fn load_plan(path: &std::path::Path) -> Result<ScanPlan> {
     plan_file::read_plan(path)
-}
-
-/// Memory budget in MiB, as bytes.
-pub fn mebibytes(mib: u64) -> u64 {
-    mib.saturating_mul(1 << 20)
 }
 
 /// `X,Y` pixel coordinates.

@@ -2,11 +2,11 @@
 
 use std::path::PathBuf;
 
-use fsm_host::image_files::ImageFormat;
-use fsm_host::patterns::{self, PatternOptions};
-use fsm_host::progress::Progress;
-use fsm_host::projector_response::ProjectorResponse;
-use fsm_host::Result;
+use fsm_io::image_files::ImageFormat;
+use fsm_io::patterns::{self, PatternOptions};
+use fsm_io::progress::Progress;
+use fsm_io::projector_response::ProjectorResponse;
+use fsm_io::Result;
 
 /// Write the projector images of the plan's whole sequence, in projection order.
 ///

@@ -4,9 +4,9 @@ use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
 use fsm_core::{Method, ScanPlan};
-use fsm_host::plan_file::{self, PlanSyntax, Preset};
-use fsm_host::stack::sequence_summary;
-use fsm_host::{Error, Result};
+use fsm_io::plan_file::{self, PlanSyntax, Preset};
+use fsm_io::stack::sequence_summary;
+use fsm_io::{Error, Result};
 
 /// Write or check a scan-plan file (TOML or JSON, chosen by the file extension).
 ///
@@ -119,7 +119,7 @@ pub fn run(args: Args) -> Result<()> {
 /// Writes the plan's wire bytes to `path`, whole or not at all.
 fn write_wire(plan: &ScanPlan, path: Option<&Path>) -> Result<()> {
     if let Some(path) = path {
-        fsm_host::outputs::write_file(path, &plan.to_bytes())?;
+        fsm_io::outputs::write_file(path, &plan.to_bytes())?;
         eprintln!("wrote {} ({} bytes)", path.display(), plan.to_bytes().len());
     }
     Ok(())

@@ -5,16 +5,15 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use fsm_geometry::Calibration;
-use fsm_host::decode::DecodeOptions;
-use fsm_host::outputs::StagedDir;
-use fsm_host::progress::Progress;
-use fsm_host::{Error, Result};
+use fsm_io::outputs::StagedDir;
+use fsm_io::progress::Progress;
+use fsm_io::{Error, Result};
 use fsm_scan::decoded::DecodedImage;
 use fsm_scan::metrics::point_errors_from_depth;
-use fsm_scan::output::{write_scan, ScanSummary, SelectionSummary, TruthSummary};
+use fsm_scan::output::{write_scan, ScanSummary, StageSeconds, TruthSummary};
 use fsm_scan::{Paths, SelectionParams, Surface};
 
-use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource};
+use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 
 /// Scan a surface: decode the capture, triangulate every candidate, select the direct one.
 ///
@@ -55,6 +54,23 @@ pub struct Args {
     /// Output folder (created; must not exist or be empty, unless --force).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
+    #[command(flatten)]
+    selection: SelectionArgs,
+    #[command(flatten)]
+    decode: DecodeArgs,
+    /// Replace the output folder if it exists and is not empty.
+    #[arg(long)]
+    force: bool,
+    /// The truth folder of a simulated capture (`fsm simulate`'s truth/: depth.tiff and
+    /// column.tiff): summary.json then counts the points more than 1 mm from the true surface
+    /// and the directly lit pixels that kept a right point.
+    #[arg(long, value_name = "DIR")]
+    truth: Option<PathBuf>,
+}
+
+/// The selection's settings (SPEC §4).
+#[derive(clap::Args, Debug)]
+pub struct SelectionArgs {
     /// Aggregation paths of the selection: 8 or 16 (16 choose better where reflections make
     /// large fictitious surfaces, at twice the selection's time).
     #[arg(long, default_value_t = 16, value_parser = parse_paths)]
@@ -83,39 +99,25 @@ pub struct Args {
     /// DFT search have no quality and are not filtered.
     #[arg(long, value_name = "SNR", default_value_t = fsm_scan::selection::DEFAULT_MIN_QUALITY)]
     min_quality: f32,
-    /// Decoding threads (default: one per core).
-    #[arg(long, value_name = "N", default_value_t = 0)]
-    threads: usize,
-    /// Most captured samples held in memory at once, MiB.
-    #[arg(long, value_name = "MiB", default_value_t = 2048)]
-    memory_budget: u64,
-    /// Replace the output folder if it exists and is not empty.
-    #[arg(long)]
-    force: bool,
-    /// The truth folder of a simulated capture (`fsm simulate`'s truth/: depth.tiff and
-    /// column.tiff): summary.json then counts the points more than 1 mm from the true surface
-    /// and the directly lit pixels that kept a right point.
-    #[arg(long, value_name = "DIR")]
-    truth: Option<PathBuf>,
 }
 
-/// The true depth (mm) and the directly lit pixels of a simulated capture of `width × height`.
-fn read_truth(dir: &std::path::Path, width: u32, height: u32) -> Result<(Vec<f32>, Vec<bool>)> {
-    let read = |name: &str| {
-        let path = dir.join(name);
-        let (w, h, values) = fsm_host::image_files::read_tiff_f32(&path)
-            .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
-        if (w, h) != (width, height) {
-            return Err(Error::Usage(format!(
-                "{}: the truth is {w}x{h} pixels, the capture {width}x{height}",
-                path.display()
-            )));
-        }
-        Ok(values)
-    };
-    let depth = read("depth.tiff")?;
-    let lit = read("column.tiff")?.iter().map(|c| c.is_finite()).collect();
-    Ok((depth, lit))
+impl SelectionArgs {
+    /// The selection's parameters for `calibration`: its defaults, overridden by the options
+    /// given.
+    pub fn params(&self, calibration: &Calibration) -> SelectionParams {
+        let mut params = SelectionParams::for_calibration(calibration);
+        params.paths = if self.paths == 16 {
+            Paths::Sixteen
+        } else {
+            Paths::Eight
+        };
+        params.epsilon_mm = self.epsilon_mm.unwrap_or(params.epsilon_mm);
+        params.beta_per_mm = self.beta_per_mm.unwrap_or(params.beta_per_mm);
+        params.drop_aliased = !self.keep_aliased;
+        params.drop_fictitious = !self.keep_fictitious;
+        params.min_quality = self.min_quality;
+        params
+    }
 }
 
 fn parse_paths(s: &str) -> std::result::Result<u8, String> {
@@ -162,72 +164,53 @@ pub fn run(args: Args) -> Result<()> {
     }
     // Read before any work: a bad truth folder fails fast.
     let truth = match &args.truth {
-        Some(dir) => Some((dir, read_truth(dir, capture.width(), capture.height())?)),
+        Some(dir) => Some((
+            dir,
+            fsm_sim::folder::read_truth(dir, capture.width(), capture.height())?,
+        )),
         None => None,
     };
     let staged = StagedDir::create(&args.out, args.force)?;
-    let options = DecodeOptions {
-        memory_budget_bytes: super::mebibytes(args.memory_budget),
-        threads: args.threads,
-    };
+    let options = args.decode.options();
     let started = Instant::now();
     let (decoded, decode_summary) =
         DecodedImage::decode_capture(&plan, &capture, &options, &Progress::stderr())?;
     let decode_seconds = started.elapsed().as_secs_f64();
-    let mut params = SelectionParams::for_calibration(&calibration);
-    params.paths = if args.paths == 16 {
-        Paths::Sixteen
-    } else {
-        Paths::Eight
-    };
-    params.epsilon_mm = args.epsilon_mm.unwrap_or(params.epsilon_mm);
-    params.beta_per_mm = args.beta_per_mm.unwrap_or(params.beta_per_mm);
-    params.drop_aliased = !args.keep_aliased;
-    params.drop_fictitious = !args.keep_fictitious;
-    params.min_quality = args.min_quality;
+    let params = args.selection.params(&calibration);
     let (surface, times) = Surface::reconstruct(&decoded, &calibration, &params);
-    let summary = ScanSummary {
-        method: match plan.method {
-            fsm_core::Method::Bfsm => "BFSM".into(),
-            fsm_core::Method::Efsm(_) => "EFSM".into(),
-        },
-        plan_fingerprint: format!("{:016x}", plan.fingerprint()),
-        width: surface.width,
-        height: surface.height,
-        candidates: decode_summary.candidates,
-        candidates_in_volume: surface.candidates,
-        points: surface.points(),
-        decode_seconds,
-        triangulate_seconds: times.triangulate_seconds,
-        select_seconds: times.select_seconds,
-        selection: SelectionSummary {
-            paths: args.paths,
-            epsilon_mm: params.epsilon_mm,
-            beta_per_mm: params.beta_per_mm,
-            drop_aliased: params.drop_aliased,
-            drop_fictitious: params.drop_fictitious,
-            min_quality: params.min_quality,
-        },
-        no_point: surface.no_point_counts(),
-        rows_without_data: decode_summary.rows_without_data.clone(),
-        bad_records: decode_summary
-            .bad_records
-            .iter()
-            .map(|b| b.error.clone())
-            .collect(),
-        aliased_pixels: decode_summary.aliased_pixels,
-        unresolved_pixels: decode_summary.unresolved_pixels,
-        calibration_checksum: format!("{:08x}", calibration.checksum()),
-        truth: truth.map(|(dir, (depth, lit))| {
-            let errors = point_errors_from_depth(&surface.point_mm, &depth, &lit, 1.0);
-            TruthSummary {
-                folder: dir.display().to_string(),
-                errors,
-                wrong_share: errors.wrong_share(),
-                completeness: errors.completeness(),
-            }
-        }),
+    let method = match plan.method {
+        fsm_core::Method::Bfsm => "BFSM",
+        fsm_core::Method::Efsm(_) => "EFSM",
     };
+    let seconds = StageSeconds {
+        decode: decode_seconds,
+        triangulate: times.triangulate_seconds,
+        select: times.select_seconds,
+    };
+    let mut summary = ScanSummary::new(
+        method,
+        plan.fingerprint(),
+        &decoded,
+        &surface,
+        &params,
+        &calibration,
+        seconds,
+    );
+    summary.rows_without_data = decode_summary.rows_without_data.clone();
+    summary.bad_records = decode_summary
+        .bad_records
+        .iter()
+        .map(|b| b.error.clone())
+        .collect();
+    summary.truth = truth.map(|(dir, (depth, lit))| {
+        let errors = point_errors_from_depth(&surface.point_mm, &depth, &lit, 1.0);
+        TruthSummary {
+            folder: dir.display().to_string(),
+            errors,
+            wrong_share: errors.wrong_share(),
+            completeness: errors.completeness(),
+        }
+    });
     write_scan(staged.path(), &surface, &summary)?;
     let out = staged.commit()?;
     eprintln!(

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::ValueEnum;
 use fsm_geometry::opencv::{self, ImportOptions, LengthUnit, Syntax, Tool};
 use fsm_geometry::Calibration;
-use fsm_host::{Error, Result};
+use fsm_io::{Error, Result};
 
 /// The tools whose files are read and written.
 #[derive(Clone, Copy, Debug, ValueEnum)]

@@ -6,7 +6,7 @@ pub mod files;
 pub mod response;
 pub mod target;
 
-use fsm_host::Result;
+use fsm_io::Result;
 
 /// Calibration of the camera–projector pair.
 #[derive(clap::Args, Debug)]

@@ -2,10 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use fsm_geometry::file::{CalibrationFile, ProjectorResponseSection};
-use fsm_host::image_files::ImageFormat;
-use fsm_host::projector_response::{self, GreyLevelManifest, ProjectorResponse, ResponseEstimate};
-use fsm_host::{outputs, Error, Result};
+use fsm_geometry::file::CalibrationFile;
+use fsm_io::image_files::ImageFormat;
+use fsm_io::projector_response::{self, GreyLevelManifest, ProjectorResponse, ResponseEstimate};
+use fsm_io::{outputs, Error, Result};
 use serde::Serialize;
 
 use crate::commands::BitDepth;
@@ -145,7 +145,7 @@ pub fn run(args: Args) -> Result<()> {
         estimate.table_response()
     };
     let bits = (estimate.saturation_code as u32 + 1).trailing_zeros() as u8;
-    print_report(images, bits, &estimate);
+    print!("{}", estimate.table(images, bits));
     let what = match &response {
         ProjectorResponse::Gamma(g) => format!("gamma {g:.4}"),
         ProjectorResponse::Table(p) => format!("a table of {} levels", p.len()),
@@ -218,45 +218,11 @@ fn write_patterns(args: &Args, out: &Path) -> Result<()> {
     Ok(())
 }
 
-fn print_report(images: &Path, bits: u8, e: &ResponseEstimate) {
-    println!(
-        "projector response from {} ({} levels, {bits}-bit sensor): {} of {} pixels used ({} saturated in the dark or full-code capture, {} too dim; median contrast {:.0} codes)",
-        images.display(),
-        e.levels.len(),
-        e.pixels_used,
-        e.pixels,
-        e.pixels_saturated,
-        e.pixels_dim,
-        e.median_contrast_dn
-    );
-    println!(
-        "best-fit gamma {:.4}, RMS residual {:.5} of full light (largest {:.5} at level {})",
-        e.gamma, e.fit_rms, e.fit_max, e.fit_max_level
-    );
-    println!("level    code    light   code^gamma   spread   pixels  saturated");
-    for l in &e.levels {
-        println!(
-            "{:>5}  {:.4}  {:.5}  {:>10.5}  {:.5}  {:>7}  {:>9}",
-            l.index, l.code, l.light, l.fitted, l.spread, l.pixels, l.saturated
-        );
-    }
-}
-
-fn section_of(response: &ProjectorResponse) -> ProjectorResponseSection {
-    match response {
-        ProjectorResponse::Gamma(g) => ProjectorResponseSection::Gamma(*g),
-        ProjectorResponse::Table(points) => ProjectorResponseSection::Table {
-            input: points.iter().map(|p| p.0).collect(),
-            output: points.iter().map(|p| p.1).collect(),
-        },
-    }
-}
-
 /// Replaces the `[projector_response]` section of the calibration file `path` (rewritten whole
 /// or not at all).
 fn store_in_calibration(path: &Path, response: &ProjectorResponse) -> Result<()> {
     let mut file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
-    file.projector_response = Some(section_of(response));
+    file.projector_response = Some(response.into());
     file.write(path).map_err(|e| Error::Usage(e.to_string()))
 }
 
@@ -268,17 +234,9 @@ pub fn response_from_calibration(path: &Path) -> Result<ProjectorResponse> {
         path: path.to_path_buf(),
         message,
     };
-    match file.projector_response {
-        None => Err(invalid(format!(
-            "has no [projector_response] section: measure it with `fsm calibrate response --images DIR --calibration {}`",
-            path.display()
-        ))),
-        Some(ProjectorResponseSection::Gamma(g)) => {
-            ProjectorResponse::from_gamma(g).map_err(|e| invalid(format!("projector_response: {e}")))
-        }
-        Some(ProjectorResponseSection::Table { input, output }) => {
-            ProjectorResponse::from_table(&input, &output)
-                .map_err(|e| invalid(format!("projector_response: {e}")))
-        }
-    }
+    let section = file.projector_response.ok_or_else(|| invalid(format!(
+        "has no [projector_response] section: measure it with `fsm calibrate response --images DIR --calibration {}`",
+        path.display()
+    )))?;
+    section.response().map_err(invalid)
 }

@@ -2,20 +2,17 @@
 //! Zhang's method for the camera, the projector as a column-only inverse camera from local
 //! homographies of the decoded columns, after Moreno & Taubin).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use fsm_calibrate::board::Checkerboard;
-use fsm_calibrate::calibrate::CalibrationReport;
-use fsm_calibrate::{calibrate, corners, CalibrationSettings, ColumnMap, PoseObservation};
-use fsm_core::ScanPlan;
+use fsm_calibrate::pose_folder::load_pose;
+use fsm_calibrate::{calibrate, corners, report, CalibrationSettings, ColumnMap, PoseObservation};
 use fsm_geometry::MeasurementVolume;
-use fsm_host::capture::Capture;
-use fsm_host::column_map::COLUMN_TIFF_NAME;
-use fsm_host::decode::{decode_capture, DecodeOptions};
-use fsm_host::image_files;
-use fsm_host::outputs::write_file;
-use fsm_host::progress::Progress;
-use fsm_host::{Error, Result};
+use fsm_io::image_files;
+use fsm_io::outputs::write_file;
+use fsm_io::{Error, Result};
+
+use crate::commands::DecodeArgs;
 
 /// The layout of the pose folders, the method and the outputs (shown after the options).
 const TARGET_HELP: &str = "\
@@ -104,103 +101,8 @@ pub struct Args {
     /// Sensor bit depth of the captured stacks (see `fsm decode --help`).
     #[arg(long, value_name = "BITS", value_parser = clap::value_parser!(u8).range(1..=16))]
     bit_depth: Option<u8>,
-    /// Decoding threads (default: one per core).
-    #[arg(long, value_name = "N", default_value_t = 0)]
-    threads: usize,
-    /// Most captured samples held in memory at once, MiB.
-    #[arg(long, value_name = "MiB", default_value_t = 2048)]
-    memory_budget: u64,
-}
-
-const WHITE_NAMES: [&str; 3] = ["white.png", "white.tif", "white.tiff"];
-const DARK_NAMES: [&str; 3] = ["dark.png", "dark.tif", "dark.tiff"];
-
-fn read_grey(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
-    let (info, data) = image_files::read_image(path)
-        .map_err(|e| Error::Usage(format!("{}: {}", path.display(), e.0)))?;
-    Ok((
-        info.width,
-        info.height,
-        data.into_iter().map(f32::from).collect(),
-    ))
-}
-
-/// A pose folder's white − dark image and column map.
-struct PoseData {
-    width: u32,
-    height: u32,
-    white: Vec<f32>,
-    columns: Vec<f32>,
-}
-
-fn load_pose(dir: &Path, plan: &ScanPlan, args: &Args) -> Result<PoseData> {
-    let column_tiff = dir.join(COLUMN_TIFF_NAME);
-    if column_tiff.is_file() {
-        let (w, h, columns) = image_files::read_tiff_f32(&column_tiff)
-            .map_err(|e| Error::Usage(format!("{}: {}", column_tiff.display(), e.0)))?;
-        let white_path = WHITE_NAMES
-            .iter()
-            .map(|n| dir.join(n))
-            .find(|p| p.is_file())
-            .ok_or_else(|| {
-                Error::Usage(format!(
-                    "{}: has {COLUMN_TIFF_NAME} but no white.png / white.tif / white.tiff (the board under a full-on frame) to find the corners in",
-                    dir.display()
-                ))
-            })?;
-        let (ww, wh, mut white) = read_grey(&white_path)?;
-        if (ww, wh) != (w, h) {
-            return Err(Error::Usage(format!(
-                "{}: {ww}x{wh}, but {COLUMN_TIFF_NAME} is {w}x{h}",
-                white_path.display()
-            )));
-        }
-        if let Some(dark_path) = DARK_NAMES.iter().map(|n| dir.join(n)).find(|p| p.is_file()) {
-            let (dw, dh, dark) = read_grey(&dark_path)?;
-            if (dw, dh) != (w, h) {
-                return Err(Error::Usage(format!(
-                    "{}: {dw}x{dh}, but {COLUMN_TIFF_NAME} is {w}x{h}",
-                    dark_path.display()
-                )));
-            }
-            for (v, d) in white.iter_mut().zip(dark) {
-                *v -= d;
-            }
-        }
-        return Ok(PoseData {
-            width: w,
-            height: h,
-            white,
-            columns,
-        });
-    }
-    // A captured stack: decode it, and take its dark and white frames.
-    let capture = Capture::open_stack(dir, plan, args.bit_depth)?;
-    let Capture::Stack(stack) = &capture else {
-        unreachable!("open_stack opens a stack");
-    };
-    let (w, h) = (stack.width(), stack.height());
-    let (_, _, dark) = read_grey(stack.frame_path(0))?;
-    let (_, _, mut white) = read_grey(stack.frame_path(1))?;
-    for (v, d) in white.iter_mut().zip(dark) {
-        *v -= d;
-    }
-    let mut columns = vec![f32::NAN; w as usize * h as usize];
-    let options = DecodeOptions {
-        memory_budget_bytes: super::super::mebibytes(args.memory_budget),
-        threads: args.threads,
-    };
-    decode_capture(plan, &capture, &options, &Progress::stderr(), |row| {
-        let y = row.row as usize * w as usize;
-        columns[y..y + w as usize].copy_from_slice(&row.strongest);
-        Ok(())
-    })?;
-    Ok(PoseData {
-        width: w,
-        height: h,
-        white,
-        columns,
-    })
+    #[command(flatten)]
+    decode: DecodeArgs,
 }
 
 /// Runs `fsm calibrate target`.
@@ -225,7 +127,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut whites = Vec::with_capacity(args.poses.len());
     let mut size: Option<(u32, u32)> = None;
     for dir in &args.poses {
-        let pose = load_pose(dir, &plan, &args)?;
+        let pose = load_pose(dir, &plan, args.bit_depth, &args.decode.options())?;
         match size {
             None => size = Some((pose.width, pose.height)),
             Some(s) if s != (pose.width, pose.height) => {
@@ -276,7 +178,7 @@ pub fn run(args: Args) -> Result<()> {
     let (calibration, report) = calibrate(&board.corners_mm(), &observations, &settings)
         .map_err(|e| Error::Usage(format!("calibration failed: {e}")))?;
 
-    print_report(&report);
+    print!("{}", report.table());
     write_file(&args.out, calibration.to_toml().as_bytes())?;
     eprintln!("wrote {}", args.out.display());
     if let Some(path) = &args.report {
@@ -287,7 +189,7 @@ pub fn run(args: Args) -> Result<()> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         for (i, (pose, white)) in report.poses.iter().zip(&whites).enumerate() {
             let path = dir.join(format!("pose{i:02}.png"));
-            let rgb = residual_picture(pose, white, w as usize, h as usize);
+            let rgb = report::residual_picture(pose, white, w as usize, h as usize);
             let mut bytes = Vec::new();
             image_files::write_png_rgb8(&mut bytes, w, h, &rgb)
                 .map_err(|e| Error::Usage(format!("{}: {}", path.display(), e.0)))?;
@@ -300,111 +202,4 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     Ok(())
-}
-
-fn print_report(report: &CalibrationReport) {
-    println!(
-        "pose                          camera RMS px   projector RMS col   corners (with column)   dense RMS col (samples)"
-    );
-    let dense = |rms: Option<f64>| rms.map_or("-".to_string(), |r| format!("{r:.4}"));
-    for p in &report.poses {
-        println!(
-            "{:<30} {:>12.4} {:>19.4}   {:>9} ({:>2})           {:>7} ({})",
-            p.label,
-            p.camera_rms_px,
-            p.projector_rms_columns,
-            p.corners,
-            p.corners_with_column,
-            dense(p.dense_rms_columns),
-            p.dense_samples
-        );
-    }
-    println!(
-        "{:<30} {:>12.4} {:>19.4}                           {:>7}",
-        "all",
-        report.camera_rms_px,
-        report.projector_rms_columns,
-        dense(report.dense_rms_columns)
-    );
-    let show = |name: &str, params: &[fsm_calibrate::calibrate::Parameter]| {
-        let list: Vec<String> = params
-            .iter()
-            .map(|p| match p.std_dev {
-                Some(s) => format!("{} {:.6} ± {:.2e}", p.name, p.value, s),
-                None => format!("{} {:.6} (fixed)", p.name, p.value),
-            })
-            .collect();
-        println!("{name}: {}", list.join(", "));
-    };
-    show("camera", &report.camera);
-    show("projector", &report.projector);
-    println!("baseline {:.3} mm", report.baseline_mm);
-    for a in &report.assumptions {
-        println!("assumed: {a}");
-    }
-}
-
-/// The white frame in grey, each corner's camera residual as a red line (× 200) and its
-/// projector residual as a dot coloured by sign and size (full colour at 0.1 column).
-fn residual_picture(
-    pose: &fsm_calibrate::calibrate::PoseReport,
-    white: &[f32],
-    w: usize,
-    h: usize,
-) -> Vec<u8> {
-    let max = white.iter().copied().fold(0.0f32, f32::max).max(1.0);
-    let mut rgb: Vec<u8> = white
-        .iter()
-        .flat_map(|&v| {
-            let g = (60.0 + 120.0 * (v / max).clamp(0.0, 1.0)) as u8;
-            [g, g, g]
-        })
-        .collect();
-    let put = |x: i64, y: i64, c: [u8; 3], rgb: &mut Vec<u8>| {
-        if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
-            let i = 3 * (y as usize * w + x as usize);
-            rgb[i..i + 3].copy_from_slice(&c);
-        }
-    };
-    for ((c, r), pr) in pose
-        .corners_px
-        .iter()
-        .zip(&pose.camera_residuals_px)
-        .zip(&pose.projector_residuals_columns)
-    {
-        let (x0, y0) = (c[0], c[1]);
-        let (x1, y1) = (x0 + 200.0 * r[0], y0 + 200.0 * r[1]);
-        let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
-        for s in 0..=steps {
-            let t = s as f64 / steps as f64;
-            put(
-                (x0 + t * (x1 - x0)).round() as i64,
-                (y0 + t * (y1 - y0)).round() as i64,
-                [230, 40, 40],
-                &mut rgb,
-            );
-        }
-        let colour = match pr {
-            None => [0, 0, 0],
-            Some(v) => {
-                let a = (v.abs() / 0.1).clamp(0.15, 1.0);
-                if *v < 0.0 {
-                    [0, (120.0 * a) as u8, (255.0 * a) as u8]
-                } else {
-                    [(255.0 * a) as u8, (220.0 * a) as u8, 0]
-                }
-            }
-        };
-        for dy in -1..=1 {
-            for dx in -1..=1 {
-                put(
-                    x0.round() as i64 + dx,
-                    y0.round() as i64 + dy,
-                    colour,
-                    &mut rgb,
-                );
-            }
-        }
-    }
-    rgb
 }

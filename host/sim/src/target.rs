@@ -15,11 +15,11 @@
 //! its projection through the system's camera model ([`true_corner_pixels`]).
 //!
 //! ```no_run
-//! use fsm_sim::target::{self, BoardPose, Checkerboard};
+//! use fsm_sim::target::{self, BoardPose, PrintedBoard};
 //! use fsm_sim::{Scene, Sensor, System};
 //!
 //! let system = System::bench();
-//! let board = Checkerboard::bench(); // 9 × 6 inner corners, 20 mm squares
+//! let board = PrintedBoard::bench(); // 9 × 6 inner corners, 20 mm squares
 //! let pose = BoardPose::tilted(&board, [0.0, 0.0, 520.0], 25.0, -15.0, 10.0);
 //! let scene = Scene::checkerboard(&board, &pose);
 //! let white = target::white_frame(&scene, &system, Some(&Sensor::default()), 1, 4).unwrap();
@@ -29,6 +29,8 @@
 
 use nalgebra::{Point2, Point3, Rotation3, Vector3};
 use rayon::prelude::*;
+
+use fsm_calibrate::board::Checkerboard;
 
 use crate::scene::{Material, Scene, Shape, Surface};
 use crate::{PatternSequence, Sensor, SimError, System, TransportSettings};
@@ -40,15 +42,13 @@ pub const LIGHT_ALBEDO: f64 = 0.85;
 /// Ambient light of a board scene: 2% of the reference white, as the presets.
 pub const AMBIENT: f64 = 0.02;
 
-/// A printed checkerboard as the simulator renders it.
+/// A printed checkerboard as the simulator renders it: the corner grid of the target
+/// definition (`fsm_calibrate`'s [`Checkerboard`], what `fsm calibrate target` reads), on paper
+/// with a margin and two albedos.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Checkerboard {
-    /// Inner corners along a row (board `+x`).
-    pub inner_columns: u32,
-    /// Inner corners down a column (board `+y`).
-    pub inner_rows: u32,
-    /// Side of a square, mm.
-    pub square_mm: f64,
+pub struct PrintedBoard {
+    /// The inner corners and the square size.
+    pub grid: Checkerboard,
     /// Width of the white margin around the squares, mm.
     pub margin_mm: f64,
     /// Albedo of the dark squares.
@@ -57,15 +57,12 @@ pub struct Checkerboard {
     pub light_albedo: f64,
 }
 
-impl Checkerboard {
-    /// A board of `inner_columns × inner_rows` inner corners and `square_mm` squares, a margin
-    /// of one square, albedos [`DARK_ALBEDO`] and [`LIGHT_ALBEDO`].
-    pub fn new(inner_columns: u32, inner_rows: u32, square_mm: f64) -> Checkerboard {
-        Checkerboard {
-            inner_columns,
-            inner_rows,
-            square_mm,
-            margin_mm: square_mm,
+impl PrintedBoard {
+    /// `grid` printed with a margin of one square, albedos [`DARK_ALBEDO`] and [`LIGHT_ALBEDO`].
+    pub fn new(grid: Checkerboard) -> PrintedBoard {
+        PrintedBoard {
+            grid,
+            margin_mm: grid.square_mm,
             dark_albedo: DARK_ALBEDO,
             light_albedo: LIGHT_ALBEDO,
         }
@@ -74,27 +71,29 @@ impl Checkerboard {
     /// The bench's target, `calibration/targets/checkerboard-9x6-20mm.toml`: 9 × 6 inner
     /// corners (10 × 7 squares, 200 mm × 140 mm), 20 mm squares, 20 mm margin. About 26 px per
     /// square at 500 mm with the bench camera.
-    pub fn bench() -> Checkerboard {
-        Checkerboard::new(9, 6, 20.0)
+    pub fn bench() -> PrintedBoard {
+        PrintedBoard::new(Checkerboard {
+            inner_columns: 9,
+            inner_rows: 6,
+            square_mm: 20.0,
+        })
     }
 
     /// Inner corners in the board frame (`z = 0`), mm, row-major
-    /// (`index = row · inner_columns + column`).
+    /// (`index = row · inner_columns + column`, as [`Checkerboard::corners_mm`]).
     pub fn corners_board_mm(&self) -> Vec<Point3<f64>> {
-        (0..self.inner_rows)
-            .flat_map(|r| {
-                (0..self.inner_columns).map(move |c| {
-                    Point3::new(c as f64 * self.square_mm, r as f64 * self.square_mm, 0.0)
-                })
-            })
+        self.grid
+            .corners_mm()
+            .iter()
+            .map(|p| Point3::new(p.x, p.y, 0.0))
             .collect()
     }
 
     /// The centre of the inner corners' grid in the board frame, mm.
     pub fn centre_board_mm(&self) -> Point3<f64> {
         Point3::new(
-            0.5 * (self.inner_columns as f64 - 1.0) * self.square_mm,
-            0.5 * (self.inner_rows as f64 - 1.0) * self.square_mm,
+            0.5 * (self.grid.inner_columns as f64 - 1.0) * self.grid.square_mm,
+            0.5 * (self.grid.inner_rows as f64 - 1.0) * self.grid.square_mm,
             0.0,
         )
     }
@@ -102,13 +101,13 @@ impl Checkerboard {
     /// The board's outline (squares and margin) in the board frame: `(min, max)` of `x` and
     /// `y`, mm.
     pub fn outline_board_mm(&self) -> ([f64; 2], [f64; 2]) {
-        let s = self.square_mm;
+        let s = self.grid.square_mm;
         let m = self.margin_mm;
         (
             [-s - m, -s - m],
             [
-                self.inner_columns as f64 * s + m,
-                self.inner_rows as f64 * s + m,
+                self.grid.inner_columns as f64 * s + m,
+                self.grid.inner_rows as f64 * s + m,
             ],
         )
     }
@@ -122,8 +121,8 @@ impl Checkerboard {
             origin,
             axis_x,
             axis_y,
-            square_mm: self.square_mm,
-            inner: [self.inner_columns, self.inner_rows],
+            square_mm: self.grid.square_mm,
+            inner: [self.grid.inner_columns, self.grid.inner_rows],
             margin_mm: self.margin_mm,
             dark,
         };
@@ -166,7 +165,7 @@ impl BoardPose {
 
     /// The board facing the camera squarely (board axes parallel to the camera's), the centre
     /// of its corner grid at `centre_mm` (camera frame).
-    pub fn facing(board: &Checkerboard, centre_mm: [f64; 3]) -> BoardPose {
+    pub fn facing(board: &PrintedBoard, centre_mm: [f64; 3]) -> BoardPose {
         BoardPose::tilted(board, centre_mm, 0.0, 0.0, 0.0)
     }
 
@@ -175,7 +174,7 @@ impl BoardPose {
     /// the centre of its corner grid at `centre_mm` (camera frame). With all angles 0 the board
     /// faces the camera with its rows along the image rows.
     pub fn tilted(
-        board: &Checkerboard,
+        board: &PrintedBoard,
         centre_mm: [f64; 3],
         yaw_deg: f64,
         pitch_deg: f64,
@@ -201,11 +200,11 @@ impl BoardPose {
 impl Scene {
     /// A scene of `board` at `pose` alone (nothing behind it: the background is black), ambient
     /// light [`AMBIENT`]. Push more surfaces for a backdrop.
-    pub fn checkerboard(board: &Checkerboard, pose: &BoardPose) -> Scene {
+    pub fn checkerboard(board: &PrintedBoard, pose: &BoardPose) -> Scene {
         Scene {
             name: format!(
                 "checkerboard_{}x{}_{}mm",
-                board.inner_columns, board.inner_rows, board.square_mm
+                board.grid.inner_columns, board.grid.inner_rows, board.grid.square_mm
             ),
             surfaces: board.surfaces(pose).to_vec(),
             ambient: AMBIENT,
@@ -215,7 +214,7 @@ impl Scene {
 }
 
 /// The inner corners of `board` at `pose` in the camera frame, mm, row-major.
-pub fn corners_camera_mm(board: &Checkerboard, pose: &BoardPose) -> Vec<Point3<f64>> {
+pub fn corners_camera_mm(board: &PrintedBoard, pose: &BoardPose) -> Vec<Point3<f64>> {
     board
         .corners_board_mm()
         .iter()
@@ -229,7 +228,7 @@ pub fn corners_camera_mm(board: &Checkerboard, pose: &BoardPose) -> Vec<Point3<f
 /// pixel may lie off the image: check it with `system.calibration.camera.contains`.
 pub fn true_corner_pixels(
     system: &System,
-    board: &Checkerboard,
+    board: &PrintedBoard,
     pose: &BoardPose,
 ) -> Vec<Option<Point2<f64>>> {
     corners_camera_mm(board, pose)
@@ -323,7 +322,11 @@ mod tests {
     /// and the dark one holds the squares of even `a + b`.
     #[test]
     fn the_two_colours_tile_the_board() {
-        let board = Checkerboard::new(5, 4, 10.0);
+        let board = PrintedBoard::new(Checkerboard {
+            inner_columns: 5,
+            inner_rows: 4,
+            square_mm: 10.0,
+        });
         let pose = BoardPose::tilted(&board, [10.0, -5.0, 500.0], 20.0, -10.0, 30.0);
         let [dark, light] = board.surfaces(&pose);
         let (lo, hi) = board.outline_board_mm();
@@ -355,7 +358,7 @@ mod tests {
     #[test]
     fn the_true_pixel_of_a_corner_looks_at_the_corner() {
         let system = System::bench();
-        let board = Checkerboard::bench();
+        let board = PrintedBoard::bench();
         let pose = BoardPose::tilted(&board, [5.0, 3.0, 520.0], 30.0, -20.0, 12.0);
         let scene = Scene::checkerboard(&board, &pose);
         let corners = corners_camera_mm(&board, &pose);
@@ -384,9 +387,13 @@ mod tests {
     #[test]
     fn the_white_frame_integrates_each_pixel_over_the_squares() {
         let system = System::bench_with_camera(96, 72);
-        let board = Checkerboard {
+        let board = PrintedBoard {
             margin_mm: 10.0,
-            ..Checkerboard::new(3, 2, 40.0)
+            ..PrintedBoard::new(Checkerboard {
+                inner_columns: 3,
+                inner_rows: 2,
+                square_mm: 40.0,
+            })
         };
         // Rolled by 17° so that the edges cross the pixel grid at every phase.
         let pose = BoardPose::tilted(&board, [0.0, 0.0, 500.0], 0.0, 0.0, 17.0);

@@ -7,10 +7,10 @@ use std::path::Path;
 use fsm_core::wire::candidates::CandidateHeader;
 use fsm_core::wire::HEADER_LEN;
 use fsm_core::{Decoder, GroupCount, Row, ScanPlan};
-use fsm_host::candidate_file::{
+use fsm_io::candidate_file::{
     CandidateFileError, CandidateReader, CandidateWriter, HostCandidates,
 };
-use fsm_host::decode::candidate_header;
+use fsm_io::decode::candidate_header;
 use proptest::prelude::*;
 
 /// Decoded rows of a small EFSM scene: pixel `x` lit by column `40 + 9x` (and, on odd pixels,
@@ -116,7 +116,7 @@ fn damage_is_an_error_naming_the_row() {
     let mut swapped = header.encode().to_vec();
     for (y, row) in [(1u32, &rows[1]), (0, &rows[0]), (2, &rows[2])] {
         let mut record = Vec::new();
-        fsm_host::candidate_file::encode_row(&header, y, row, &mut record).unwrap();
+        fsm_io::candidate_file::encode_row(&header, y, row, &mut record).unwrap();
         swapped.extend_from_slice(&record);
     }
     let e = read_all(&swapped, 12).unwrap_err();

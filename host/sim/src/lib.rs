@@ -15,6 +15,9 @@
 //! | ground truth: 3D point, direct column (SPEC §7), interreflection mask | [`truth`] |
 //! | what the projector shows | [`PatternSequence`] (fsm-core's trait, re-exported) |
 //! | frames → sensor codes, row by row; row dumps | [`capture`], [`sensor`] |
+//! | calibration targets: a printed board at a pose, its true corners | [`target`] |
+//! | what `fsm simulate` writes: plan, calibration, captures, truth images, board poses | [`folder`] |
+//! | the paper's comparison (`fsm demo`): simulate, decode, select, score against the truth | [`comparison`] |
 //!
 //! ## Why a pixel's light is a short list of columns
 //!
@@ -48,7 +51,9 @@
 #![warn(missing_docs)]
 
 pub mod capture;
+pub mod comparison;
 pub mod error;
+pub mod folder;
 pub mod radiometry;
 pub mod scene;
 pub mod sensor;

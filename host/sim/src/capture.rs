@@ -15,6 +15,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_io::outputs::StagedFile;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Poisson, StandardNormal};
 use rand_pcg::Pcg64Mcg;
@@ -256,24 +257,15 @@ impl Capture {
         Ok(())
     }
 
-    /// Writes the row dump to `path` whole or not at all (temporary name, then rename).
+    /// Writes the row dump to `path` whole or not at all (the workspace's one atomic writer,
+    /// [`fsm_io::outputs::StagedFile`]).
     pub fn write_row_dump_file(&self, path: &Path) -> Result<(), SimError> {
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "dump".into());
-        let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+        let io = |e: fsm_io::Error| SimError::Io(e.into_io_error());
         let result = (|| {
-            let file = std::fs::File::create(&tmp).map_err(SimError::Io)?;
-            let mut w = std::io::BufWriter::new(file);
-            self.write_row_dump(&mut w)?;
-            let file = w.into_inner().map_err(|e| SimError::Io(e.into_error()))?;
-            file.sync_all().map_err(SimError::Io)?;
-            std::fs::rename(&tmp, path).map_err(SimError::Io)
+            let mut file = StagedFile::create(path).map_err(io)?;
+            self.write_row_dump(file.writer())?;
+            file.commit().map_err(io)
         })();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
         result.map_err(|e| SimError::File {
             path: path.display().to_string(),
             source: Box::new(e),

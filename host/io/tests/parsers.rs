@@ -1,8 +1,8 @@
 //! The remaining readers under arbitrary input: captured images (PNG/TIFF headers and data) and
 //! projector-response files never panic; damage is an error.
 
-use fsm_host::image_files;
-use fsm_host::projector_response::{GreyLevelManifest, ProjectorResponse};
+use fsm_io::image_files;
+use fsm_io::projector_response::{GreyLevelManifest, ProjectorResponse};
 use proptest::prelude::*;
 
 fn valid_png(width: u32, height: u32) -> Vec<u8> {

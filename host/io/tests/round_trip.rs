@@ -8,13 +8,13 @@ mod support;
 use std::path::Path;
 
 use fsm_core::{GroupCount, ScanPlan};
-use fsm_host::candidate_file::{CandidateReader, HostCandidates, CANDIDATE_FILE_NAME};
-use fsm_host::capture::Capture;
-use fsm_host::column_map::{COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
-use fsm_host::decode::{self, DecodeOptions};
-use fsm_host::image_files::{self, ImageFormat};
-use fsm_host::patterns::{write_pattern_set, PatternOptions};
-use fsm_host::progress::Progress;
+use fsm_io::candidate_file::{CandidateReader, HostCandidates, CANDIDATE_FILE_NAME};
+use fsm_io::capture::Capture;
+use fsm_io::column_map::{COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
+use fsm_io::decode::{self, DecodeOptions};
+use fsm_io::image_files::{self, ImageFormat};
+use fsm_io::patterns::{write_pattern_set, PatternOptions};
+use fsm_io::progress::Progress;
 use support::FlatWall;
 
 const TOLERANCE_COLUMNS: f32 = 0.05;

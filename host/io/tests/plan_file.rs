@@ -3,7 +3,7 @@
 
 use fsm_core::GroupCount;
 use fsm_core::ScanPlan;
-use fsm_host::plan_file::{parse_plan, render_plan, PlanFileError, PlanSyntax};
+use fsm_io::plan_file::{parse_plan, render_plan, PlanFileError, PlanSyntax};
 use proptest::prelude::*;
 use serde_json::Value;
 

@@ -1,4 +1,4 @@
-//! Test support shared by the library tests (`host/tests`) and the CLI tests
+//! Test support shared by the library tests (`host/io/tests`) and the CLI tests
 //! (`host/cli/tests`, included by path): a flat white wall in front of the projector.
 //!
 //! Identity light transport: camera pixel `(x, y)` sees projector column `x` and nothing else.
@@ -10,8 +10,8 @@
 
 use std::path::{Path, PathBuf};
 
-use fsm_host::image_files;
-use fsm_host::patterns::{Manifest, MANIFEST_NAME};
+use fsm_io::image_files;
+use fsm_io::patterns::{Manifest, MANIFEST_NAME};
 use rand::{RngExt, SeedableRng};
 use rand_distr::Normal;
 

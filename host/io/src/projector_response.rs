@@ -501,6 +501,37 @@ pub struct ResponseEstimate {
 }
 
 impl ResponseEstimate {
+    /// The estimate as the text `fsm calibrate response` prints for the captures in `images`
+    /// of a `bits`-bit sensor: pixels used, the fit, and every level.
+    pub fn table(&self, images: &std::path::Path, bits: u8) -> String {
+        use std::fmt::Write;
+        let e = self;
+        let mut out = format!(
+            "projector response from {} ({} levels, {bits}-bit sensor): {} of {} pixels used ({} saturated in the dark or full-code capture, {} too dim; median contrast {:.0} codes)\n",
+            images.display(),
+            e.levels.len(),
+            e.pixels_used,
+            e.pixels,
+            e.pixels_saturated,
+            e.pixels_dim,
+            e.median_contrast_dn
+        );
+        let _ = writeln!(
+            out,
+            "best-fit gamma {:.4}, RMS residual {:.5} of full light (largest {:.5} at level {})",
+            e.gamma, e.fit_rms, e.fit_max, e.fit_max_level
+        );
+        out.push_str("level    code    light   code^gamma   spread   pixels  saturated\n");
+        for l in &e.levels {
+            let _ = writeln!(
+                out,
+                "{:>5}  {:.4}  {:.5}  {:>10.5}  {:.5}  {:>7}  {:>9}",
+                l.index, l.code, l.light, l.fitted, l.spread, l.pixels, l.saturated
+            );
+        }
+        out
+    }
+
     /// The power law fitted.
     pub fn gamma_response(&self) -> ProjectorResponse {
         ProjectorResponse::Gamma(self.gamma)

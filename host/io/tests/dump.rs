@@ -10,11 +10,11 @@ use std::path::Path;
 use fsm_core::wire::row_dump::RowDumpHeader;
 use fsm_core::wire::{WireError, HEADER_LEN};
 use fsm_core::{GroupCount, ScanPlan};
-use fsm_host::capture::{BadRows, Capture};
-use fsm_host::decode::{self, DecodeOptions};
-use fsm_host::dump::{DumpError, DumpReader, DumpWriter};
-use fsm_host::progress::Progress;
-use fsm_host::Error;
+use fsm_io::capture::{BadRows, Capture};
+use fsm_io::decode::{self, DecodeOptions};
+use fsm_io::dump::{DumpError, DumpReader, DumpWriter};
+use fsm_io::progress::Progress;
+use fsm_io::Error;
 use proptest::prelude::*;
 
 /// A small dump of `plan` with deterministic samples, rows written in the order given.
@@ -275,7 +275,7 @@ fn rows_stored_out_of_order_decode_to_the_same_candidate_file() {
             decode::decode_to_dir(&plan, &capture, &out, false, &options, &Progress::hidden())
                 .unwrap();
         assert_eq!(summary.lit_pixels, (width * height) as u64);
-        files.push(std::fs::read(out.join(fsm_host::candidate_file::CANDIDATE_FILE_NAME)).unwrap());
+        files.push(std::fs::read(out.join(fsm_io::candidate_file::CANDIDATE_FILE_NAME)).unwrap());
     }
     assert_eq!(files[0], files[1]);
 }

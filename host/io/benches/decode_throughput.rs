@@ -1,6 +1,6 @@
 //! Decode throughput of the host pipeline and its peak memory.
 //!
-//! `cargo bench -p fsm-host --bench decode_throughput`
+//! `cargo bench -p fsm-io --bench decode_throughput`
 //!
 //! BFSM with the paper's plan (`ScanPlan::paper_bfsm()`: 770 frames, M = 768 fringes,
 //! N = 1024), a synthetic 12-bit scene (every pixel lit directly, a quarter of them also by a
@@ -26,11 +26,11 @@ use std::time::Instant;
 use fsm_core::wire::row_dump::RowDumpHeader;
 use fsm_core::wire::HEADER_LEN;
 use fsm_core::{GroupCount, ScanPlan};
-use fsm_host::capture::{BadRows, Capture, RowBatch, RowBatches};
-use fsm_host::decode::{self, DecodeOptions, DecodeSummary};
-use fsm_host::dump::{DumpReader, DumpWriter};
-use fsm_host::image_files;
-use fsm_host::progress::Progress;
+use fsm_io::capture::{BadRows, Capture, RowBatch, RowBatches};
+use fsm_io::decode::{self, DecodeOptions, DecodeSummary};
+use fsm_io::dump::{DumpReader, DumpWriter};
+use fsm_io::image_files;
+use fsm_io::progress::Progress;
 use rayon::prelude::*;
 
 const BITS: u8 = 12;
@@ -125,7 +125,7 @@ fn decode_all(plan: &ScanPlan, batches: &mut RowBatches<'_>, threads: usize) -> 
         memory_budget_bytes: u64::MAX,
         threads,
     };
-    let mut map = fsm_host::column_map::ColumnMap::new(batches.width(), batches.height());
+    let mut map = fsm_io::column_map::ColumnMap::new(batches.width(), batches.height());
     let mut bytes = 0usize;
     let summary = decode::decode_batches(plan, batches, &options, &Progress::hidden(), |row| {
         bytes += row.record.len();

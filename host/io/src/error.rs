@@ -67,6 +67,16 @@ impl Error {
             source,
         }
     }
+
+    /// The operating system's error alone, for a caller whose own error type names the path
+    /// (the calibration files' and the simulator's writers over [`crate::outputs`]). Errors
+    /// other than [`Error::Io`] become [`io::ErrorKind::Other`] with their message.
+    pub fn into_io_error(self) -> io::Error {
+        match self {
+            Error::Io { source, .. } => source,
+            other => io::Error::other(other.to_string()),
+        }
+    }
 }
 
 /// Attaches a path to I/O results.

@@ -1,4 +1,4 @@
-//! # fsm-host: the host side of the Frequency Shift Method scanner
+//! # fsm-io: the host side of the Frequency Shift Method scanner
 //!
 //! Everything the `fsm` tool does, as a library: plans as files, pattern sets for the
 //! projector, captured stacks and row dumps, parallel decoding into candidate files and
@@ -22,8 +22,8 @@
 //! | progress bars | [`progress`] |
 //!
 //! ```no_run
-//! use fsm_host::{capture::Capture, decode, plan_file, progress::Progress};
-//! # fn main() -> fsm_host::Result<()> {
+//! use fsm_io::{capture::Capture, decode, plan_file, progress::Progress};
+//! # fn main() -> fsm_io::Result<()> {
 //! let plan = plan_file::read_plan("plan.toml".as_ref())?;
 //! let capture = Capture::open_stack("captures".as_ref(), &plan, Some(12))?;
 //! let summary = decode::decode_to_dir(

@@ -1,0 +1,115 @@
+//! A pose folder of `fsm calibrate target`: the board's white frame and its decoded column
+//! map, from a captured stack of the plan's patterns (decoded with `fsm_io`'s pipeline) or from
+//! `column.tiff` beside a white frame.
+
+use std::path::Path;
+
+use fsm_core::ScanPlan;
+use fsm_io::capture::Capture;
+use fsm_io::column_map::COLUMN_TIFF_NAME;
+use fsm_io::decode::{decode_capture, DecodeOptions};
+use fsm_io::image_files;
+use fsm_io::progress::Progress;
+use fsm_io::{Error, Result};
+
+/// The names the white frame of a decoded pose folder may have.
+pub const WHITE_NAMES: [&str; 3] = ["white.png", "white.tif", "white.tiff"];
+/// The names its optional dark frame may have.
+pub const DARK_NAMES: [&str; 3] = ["dark.png", "dark.tif", "dark.tiff"];
+
+fn read_grey(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let (info, data) = image_files::read_image(path)
+        .map_err(|e| Error::Usage(format!("{}: {}", path.display(), e.0)))?;
+    Ok((
+        info.width,
+        info.height,
+        data.into_iter().map(f32::from).collect(),
+    ))
+}
+
+/// A pose folder's white − dark image and column map, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoseData {
+    /// Image width, px.
+    pub width: u32,
+    /// Image height, px.
+    pub height: u32,
+    /// The board under the full-on frame less the dark frame (where given), grey levels.
+    pub white: Vec<f32>,
+    /// The strongest candidate's projector column of each pixel (NaN: none).
+    pub columns: Vec<f32>,
+}
+
+/// Reads a pose folder: `column.tiff` and `white.png` (`dark.png` optional) as written by
+/// `fsm decode` and a camera, or a captured stack of `plan`, decoded here (`bit_depth` and
+/// `options` as `fsm decode`'s).
+pub fn load_pose(
+    dir: &Path,
+    plan: &ScanPlan,
+    bit_depth: Option<u8>,
+    options: &DecodeOptions,
+) -> Result<PoseData> {
+    let column_tiff = dir.join(COLUMN_TIFF_NAME);
+    if column_tiff.is_file() {
+        let (w, h, columns) = image_files::read_tiff_f32(&column_tiff)
+            .map_err(|e| Error::Usage(format!("{}: {}", column_tiff.display(), e.0)))?;
+        let white_path = WHITE_NAMES
+            .iter()
+            .map(|n| dir.join(n))
+            .find(|p| p.is_file())
+            .ok_or_else(|| {
+                Error::Usage(format!(
+                    "{}: has {COLUMN_TIFF_NAME} but no white.png / white.tif / white.tiff (the board under a full-on frame) to find the corners in",
+                    dir.display()
+                ))
+            })?;
+        let (ww, wh, mut white) = read_grey(&white_path)?;
+        if (ww, wh) != (w, h) {
+            return Err(Error::Usage(format!(
+                "{}: {ww}x{wh}, but {COLUMN_TIFF_NAME} is {w}x{h}",
+                white_path.display()
+            )));
+        }
+        if let Some(dark_path) = DARK_NAMES.iter().map(|n| dir.join(n)).find(|p| p.is_file()) {
+            let (dw, dh, dark) = read_grey(&dark_path)?;
+            if (dw, dh) != (w, h) {
+                return Err(Error::Usage(format!(
+                    "{}: {dw}x{dh}, but {COLUMN_TIFF_NAME} is {w}x{h}",
+                    dark_path.display()
+                )));
+            }
+            for (v, d) in white.iter_mut().zip(dark) {
+                *v -= d;
+            }
+        }
+        return Ok(PoseData {
+            width: w,
+            height: h,
+            white,
+            columns,
+        });
+    }
+    // A captured stack: decode it, and take its dark and white frames.
+    let capture = Capture::open_stack(dir, plan, bit_depth)?;
+    let Capture::Stack(stack) = &capture else {
+        unreachable!("open_stack opens a stack");
+    };
+    let (w, h) = (stack.width(), stack.height());
+    let (_, _, dark) = read_grey(stack.frame_path(0))?;
+    let (_, _, mut white) = read_grey(stack.frame_path(1))?;
+    for (v, d) in white.iter_mut().zip(dark) {
+        *v -= d;
+    }
+    let mut columns = vec![f32::NAN; w as usize * h as usize];
+    decode_capture(plan, &capture, options, &Progress::stderr(), |row| {
+        let y = row.row as usize * w as usize;
+        columns[y..y + w as usize].copy_from_slice(&row.strongest);
+        Ok(())
+    })?;
+    Ok(PoseData {
+        width: w,
+        height: h,
+        white,
+        columns,
+    })
+}

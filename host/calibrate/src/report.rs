@@ -1,0 +1,113 @@
+//! The calibration report as a person reads it: the text table `fsm calibrate target` prints
+//! and each pose's residual picture.
+
+use crate::calibrate::{CalibrationReport, Parameter, PoseReport};
+
+impl CalibrationReport {
+    /// The report as the text table `fsm calibrate target` prints: RMS per pose and overall,
+    /// each parameter with its standard deviation, the baseline and the assumptions made.
+    pub fn table(&self) -> String {
+        let report = self;
+        let mut out = String::new();
+        out.push_str(
+        "pose                          camera RMS px   projector RMS col   corners (with column)   dense RMS col (samples)\n",
+    );
+        let dense = |rms: Option<f64>| rms.map_or("-".to_string(), |r| format!("{r:.4}"));
+        for p in &report.poses {
+            out += &format!(
+                "{:<30} {:>12.4} {:>19.4}   {:>9} ({:>2})           {:>7} ({})\n",
+                p.label,
+                p.camera_rms_px,
+                p.projector_rms_columns,
+                p.corners,
+                p.corners_with_column,
+                dense(p.dense_rms_columns),
+                p.dense_samples
+            );
+        }
+        out += &format!(
+            "{:<30} {:>12.4} {:>19.4}                           {:>7}\n",
+            "all",
+            report.camera_rms_px,
+            report.projector_rms_columns,
+            dense(report.dense_rms_columns)
+        );
+        let show = |name: &str, params: &[Parameter]| {
+            let list: Vec<String> = params
+                .iter()
+                .map(|p| match p.std_dev {
+                    Some(s) => format!("{} {:.6} ± {:.2e}", p.name, p.value, s),
+                    None => format!("{} {:.6} (fixed)", p.name, p.value),
+                })
+                .collect();
+            format!("{name}: {}\n", list.join(", "))
+        };
+        out += &show("camera", &report.camera);
+        out += &show("projector", &report.projector);
+        out += &format!("baseline {:.3} mm\n", report.baseline_mm);
+        for a in &report.assumptions {
+            out += &format!("assumed: {a}\n");
+        }
+        out
+    }
+}
+
+/// The white frame in grey, each corner's camera residual as a red line (× 200) and its
+/// projector residual as a dot coloured by sign and size (full colour at 0.1 column).
+pub fn residual_picture(pose: &PoseReport, white: &[f32], w: usize, h: usize) -> Vec<u8> {
+    let max = white.iter().copied().fold(0.0f32, f32::max).max(1.0);
+    let mut rgb: Vec<u8> = white
+        .iter()
+        .flat_map(|&v| {
+            let g = (60.0 + 120.0 * (v / max).clamp(0.0, 1.0)) as u8;
+            [g, g, g]
+        })
+        .collect();
+    let put = |x: i64, y: i64, c: [u8; 3], rgb: &mut Vec<u8>| {
+        if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
+            let i = 3 * (y as usize * w + x as usize);
+            rgb[i..i + 3].copy_from_slice(&c);
+        }
+    };
+    for ((c, r), pr) in pose
+        .corners_px
+        .iter()
+        .zip(&pose.camera_residuals_px)
+        .zip(&pose.projector_residuals_columns)
+    {
+        let (x0, y0) = (c[0], c[1]);
+        let (x1, y1) = (x0 + 200.0 * r[0], y0 + 200.0 * r[1]);
+        let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
+        for s in 0..=steps {
+            let t = s as f64 / steps as f64;
+            put(
+                (x0 + t * (x1 - x0)).round() as i64,
+                (y0 + t * (y1 - y0)).round() as i64,
+                [230, 40, 40],
+                &mut rgb,
+            );
+        }
+        let colour = match pr {
+            None => [0, 0, 0],
+            Some(v) => {
+                let a = (v.abs() / 0.1).clamp(0.15, 1.0);
+                if *v < 0.0 {
+                    [0, (120.0 * a) as u8, (255.0 * a) as u8]
+                } else {
+                    [(255.0 * a) as u8, (220.0 * a) as u8, 0]
+                }
+            }
+        };
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                put(
+                    x0.round() as i64 + dx,
+                    y0.round() as i64 + dy,
+                    colour,
+                    &mut rgb,
+                );
+            }
+        }
+    }
+    rgb
+}
