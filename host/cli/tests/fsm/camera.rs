@@ -3,19 +3,10 @@
 //! camera's candidates — byte for byte what `fsm decode` makes of the same dump.
 
 use std::fs;
-use std::path::Path;
 
-use assert_cmd::Command;
+use crate::run::{fsm, s};
 use fsm_firmware::emulator::Emulator;
 use fsm_io::candidate_file::CANDIDATE_FILE_NAME;
-
-fn fsm() -> Command {
-    Command::cargo_bin("fsm").unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn stderr(assert: &assert_cmd::assert::Assert) -> String {
     String::from_utf8_lossy(&assert.get_output().stderr).to_string()

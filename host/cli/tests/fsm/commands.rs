@@ -3,41 +3,15 @@
 //! input — wrong image count, size or bit depth, a foreign plan, a corrupted dump — exits
 //! non-zero with a message naming what and where, leaving no output behind.
 
-#[path = "../../io/tests/support/mod.rs"]
-mod support;
+use std::path::PathBuf;
 
-use std::path::{Path, PathBuf};
-
-use assert_cmd::Command;
+use crate::flat_wall::{entries, FlatWall};
+use crate::run::{fails, ok, s};
 use fsm_io::candidate_file::{CandidateReader, HostCandidates, CANDIDATE_FILE_NAME};
-use support::{entries, FlatWall};
-
-fn fsm() -> Command {
-    Command::cargo_bin("fsm").unwrap()
-}
 
 /// Runs `fsm` expecting success; returns stdout.
-fn ok(args: &[&str]) -> String {
-    let out = fsm().args(args).output().unwrap();
-    assert!(
-        out.status.success(),
-        "fsm {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
 
 /// Runs `fsm` expecting failure; returns stderr.
-fn fails(args: &[&str]) -> String {
-    let out = fsm().args(args).output().unwrap();
-    assert!(!out.status.success(), "fsm {args:?} should have failed");
-    assert_eq!(out.status.code(), Some(1), "fsm {args:?}: exit code");
-    String::from_utf8(out.stderr).unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// A scan folder: EFSM two groups, 3 camera rows, 12-bit flat-wall captures.
 struct Scan {

@@ -5,17 +5,9 @@
 use std::fs;
 use std::path::Path;
 
-use assert_cmd::Command;
+use crate::run::{fsm, s};
 use ply_rs::parser::Parser;
 use ply_rs::ply::{DefaultElement, Property};
-
-fn fsm() -> Command {
-    Command::cargo_bin("fsm").unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn float(e: &DefaultElement, name: &str) -> f32 {
     match e.get(name) {

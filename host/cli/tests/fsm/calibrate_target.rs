@@ -9,25 +9,17 @@
 //! (With the former fixed 4 × 4 ray grid: 0.040 px, fx −0.05%, projector fx −0.10%, baseline
 //! −0.08%, cx +0.8 px; seeds 2-4 then gave fx −0.03% to −0.11% and baseline −0.04% to −0.14%:
 //! the limits below leave a margin of 3-4 times that.) About 18 s in the test profile
-//! (`cargo test -p fsm-cli --test calibrate_target -- --nocapture` prints it).
+//! (`cargo test -p fsm-cli --test fsm calibrate_target:: -- --nocapture` prints it).
 
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use assert_cmd::Command;
+use crate::run::{fsm, s};
 use fsm_geometry::Calibration;
 
 /// Board poses simulated (the first ones of `fsm simulate --board-poses`).
 const POSES: usize = 5;
-
-fn fsm() -> Command {
-    Command::cargo_bin("fsm").unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// The bench's target definition, as a user passes it.
 fn bench_board() -> PathBuf {

@@ -5,40 +5,15 @@
 //! within 1e-6 mm). Bad input exits 1 with a message naming the file and the key, and leaves
 //! no output behind.
 //!
-//! `FSM_BLESS_CALIBRATION=1 cargo test -p fsm-cli --test calibrate_files` rewrites
+//! `FSM_BLESS_CALIBRATION=1 cargo test -p fsm-cli --test fsm calibrate_files::` rewrites
 //! `calibration/bench.toml` and the examples from the simulator (after a deliberate change of
 //! the bench or of the writers); without it the tests only compare.
 
 use std::path::{Path, PathBuf};
 
-use assert_cmd::Command;
+use crate::run::{fails, ok_stderr, s};
 use fsm_geometry::Calibration;
 use fsm_sim::System;
-
-fn fsm() -> Command {
-    Command::cargo_bin("fsm").unwrap()
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = fsm().args(args).output().unwrap();
-    assert!(
-        out.status.success(),
-        "fsm {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stderr).unwrap()
-}
-
-fn fails(args: &[&str]) -> String {
-    let out = fsm().args(args).output().unwrap();
-    assert!(!out.status.success(), "fsm {args:?} should have failed");
-    assert_eq!(out.status.code(), Some(1), "fsm {args:?}: exit code");
-    String::from_utf8(out.stderr).unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -138,7 +113,7 @@ fn examples_are_the_exported_bench_and_import_to_it() {
         let example = repo().join("calibration/examples").join(file);
         // The example is what export writes for the bench calibration, byte for byte.
         let exported = dir.path().join(file);
-        let msg = ok(&[
+        let msg = ok_stderr(&[
             "calibrate",
             "export",
             "--calibration",
@@ -173,7 +148,7 @@ fn examples_are_the_exported_bench_and_import_to_it() {
         ];
         args.extend(options.iter().cloned());
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        let msg = ok(&args);
+        let msg = ok_stderr(&args);
         assert!(msg.contains("wrote"), "{msg}");
         let imported = Calibration::read(&toml).unwrap();
         assert_same_geometry(&bench, &imported, file);
@@ -188,7 +163,7 @@ fn translation_units_round_trip_through_the_cli() {
     let cal = dir.path().join("bench.toml");
     bench.write(&cal).unwrap();
     let yml = dir.path().join("procam_m.yml");
-    ok(&[
+    ok_stderr(&[
         "calibrate",
         "export",
         "--calibration",
@@ -203,7 +178,7 @@ fn translation_units_round_trip_through_the_cli() {
     let text = std::fs::read_to_string(&yml).unwrap();
     assert!(text.starts_with("%YAML:1.0\n"), "{text}");
     let back = dir.path().join("back.toml");
-    let msg = ok(&[
+    let msg = ok_stderr(&[
         "calibrate",
         "import",
         "--format",
@@ -248,7 +223,7 @@ fn bad_input_names_the_file_and_the_key_and_leaves_nothing() {
     let cal = dir.path().join("bench.toml");
     bench.write(&cal).unwrap();
     let theirs = dir.path().join("theirs.yml");
-    ok(&[
+    ok_stderr(&[
         "calibrate",
         "export",
         "--calibration",

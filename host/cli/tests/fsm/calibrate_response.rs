@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use assert_cmd::Command;
+use crate::run::{fails, fsm, ok, s};
 use fsm_geometry::file::{CalibrationFile, ProjectorResponseSection};
 use fsm_io::image_files;
 use fsm_io::projector_response::{GreyLevelManifest, ProjectorResponse, GREY_LEVELS_MANIFEST};
@@ -14,34 +14,6 @@ use fsm_io::projector_response::{GreyLevelManifest, ProjectorResponse, GREY_LEVE
 const GAMMA: f64 = 2.2;
 const W: u32 = 48;
 const H: u32 = 32;
-
-fn fsm() -> Command {
-    Command::cargo_bin("fsm").unwrap()
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = fsm().args(args).output().unwrap();
-    assert!(
-        out.status.success(),
-        "fsm {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
-
-fn fails(args: &[&str]) -> String {
-    let out = fsm().args(args).output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(1),
-        "fsm {args:?} should fail with 1"
-    );
-    String::from_utf8(out.stderr).unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// The camera's 12-bit value at pixel `i` for projector code `code` (fraction of full).
 fn camera(i: usize, code: f64) -> u16 {
