@@ -4,7 +4,7 @@
 
 use std::fs;
 
-use crate::run::{fsm, s};
+use crate::run::{fsm, s, simulate};
 use fsm_firmware::emulator::Emulator;
 use fsm_io::candidate_file::CANDIDATE_FILE_NAME;
 
@@ -19,20 +19,7 @@ fn the_camera_decodes_a_simulated_scan_exactly_as_the_host_does() {
     let dir = tempfile::tempdir().unwrap();
     for preset in ["paper-bfsm", "paper-efsm-2"] {
         let sim = dir.path().join(preset);
-        fsm()
-            .args([
-                "simulate",
-                "--scene",
-                "plane_mirror",
-                "--preset",
-                preset,
-                "--camera",
-                "48x32",
-                "--out",
-                s(&sim),
-            ])
-            .assert()
-            .success();
+        simulate("plane_mirror", preset, "48x32", &sim);
         let plan = sim.join("plan.toml");
         let dump = sim.join("scan.dump");
         let upload = fsm()
@@ -92,20 +79,7 @@ fn the_camera_decodes_a_simulated_scan_exactly_as_the_host_does() {
 fn a_camera_that_is_not_there_is_named_in_the_error() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");
-    fsm()
-        .args([
-            "simulate",
-            "--scene",
-            "plane",
-            "--preset",
-            "paper-efsm-1",
-            "--camera",
-            "16x8",
-            "--out",
-            s(&sim),
-        ])
-        .assert()
-        .success();
+    simulate("plane", "paper-efsm-1", "16x8", &sim);
     // A port nothing listens on.
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let device = format!("tcp://{}", listener.local_addr().unwrap());

@@ -41,3 +41,12 @@ pub fn fails(args: &[&str]) -> String {
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
+
+/// `fsm simulate --scene SCENE --preset PRESET --camera WxH --out OUT`, which must succeed.
+pub fn simulate(scene: &str, preset: &str, camera: &str, out: &Path) {
+    fsm()
+        .args(["simulate", "--scene", scene, "--preset", preset])
+        .args(["--camera", camera, "--out", s(out)])
+        .assert()
+        .success();
+}

@@ -5,7 +5,7 @@
 use std::fs;
 use std::path::Path;
 
-use crate::run::{fsm, s};
+use crate::run::{fsm, s, simulate};
 use ply_rs::parser::Parser;
 use ply_rs::ply::{DefaultElement, Property};
 
@@ -20,20 +20,7 @@ fn float(e: &DefaultElement, name: &str) -> f32 {
 fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
     let dir = tempfile::tempdir().unwrap();
     let (sim, out) = (dir.path().join("sim"), dir.path().join("scan"));
-    fsm()
-        .args([
-            "simulate",
-            "--scene",
-            "plane_mirror",
-            "--preset",
-            "paper-bfsm",
-            "--camera",
-            "96x72",
-            "--out",
-            s(&sim),
-        ])
-        .assert()
-        .success();
+    simulate("plane_mirror", "paper-bfsm", "96x72", &sim);
     for name in [
         "plan.toml",
         "calibration.toml",
@@ -117,20 +104,7 @@ fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
 fn scan_refuses_a_calibration_of_another_projector_or_camera_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");
-    fsm()
-        .args([
-            "simulate",
-            "--scene",
-            "plane",
-            "--preset",
-            "paper-efsm-1",
-            "--camera",
-            "32x24",
-            "--out",
-            s(&sim),
-        ])
-        .assert()
-        .success();
+    simulate("plane", "paper-efsm-1", "32x24", &sim);
     // A 640-column plan against the 768-column calibration.
     let plan = fs::read_to_string(sim.join("plan.toml"))
         .unwrap()
