@@ -46,8 +46,11 @@ cp "$BUILT_ELF" "$WORK/fsm-firmware.elf"
 ELF="$WORK/fsm-firmware.elf"
 ok "build-arm.sh -> $(basename "$ELF")"
 
-# Host tools (scene, decode, compare), built once.
-"$HOST_CARGO" build -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
+# Host tools (scene, decode, compare): the workspace tests' build, which links both binaries
+# (fsm-firmware, fsm) with the features `cargo test --workspace` resolves, so after that
+# command nothing is rebuilt (`cargo build -p X --bin Y` resolves fewer features and rebuilt
+# 17 crates, about 2 minutes per binary, measured here).
+"$HOST_CARGO" test -q --manifest-path "$FW_DIR/../Cargo.toml" --workspace --no-run
 TARGET_DIR="$("$HOST_CARGO" metadata --format-version 1 --no-deps --manifest-path "$FW_DIR/Cargo.toml" \
     | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')"
 TOOL="$TARGET_DIR/debug/fsm-firmware"
@@ -77,9 +80,7 @@ fi
 
 # 2b. The same cross-check on the project's light-transport simulator: `fsm simulate` renders
 #     plane_mirror (a diffuse plane lit directly and through a mirror) at 48 x 32 pixels, `fsm plan
-#     --wire` gives the 80-byte plan the firmware takes. (The dev build: `cargo test --workspace`
-#     has built it already.)
-"$HOST_CARGO" build -q --manifest-path "$FW_DIR/../Cargo.toml" -p fsm-cli --bin fsm
+#     --wire` gives the 80-byte plan the firmware takes (built above with the workspace tests).
 FSM="$TARGET_DIR/debug/fsm"
 
 # simulate PRESET DIR: plane_mirror at 48 x 32 pixels -> DIR/scan.dump and its wire plan DIR/plan.bin
@@ -173,7 +174,7 @@ done
 
 # 6. The Rust test that runs the cross-check (it skips when QEMU or a fresh ELF is missing,
 #    unless FW_REQUIRE_QEMU=1; here both are present, so it must run, not skip).
-if FW_ELF="$BUILT_ELF" FW_REQUIRE_QEMU=1 "$HOST_CARGO" test -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware \
+if FW_ELF="$BUILT_ELF" FW_REQUIRE_QEMU=1 "$HOST_CARGO" test -q --manifest-path "$FW_DIR/../Cargo.toml" --workspace \
     --test qemu_crosscheck -- --nocapture >rusttest.txt 2>&1 && ! grep -q '^SKIP' rusttest.txt; then
     grep -E '^(ok|identical)' rusttest.txt || true
     ok "cargo test -p fsm-firmware --test qemu_crosscheck"

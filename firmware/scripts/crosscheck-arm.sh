@@ -52,11 +52,12 @@ else
     trap 'rm -rf "$WORK"' EXIT
 fi
 
-# The host tools (scene, decode, compare): rustup's cargo, the workspace's own target dir and its
-# one profile (dev), so `cargo test --workspace` has built them already.
+# The host tools (scene, decode, compare): rustup's cargo, the workspace's own target dir, its
+# one profile (dev) and the features `cargo test --workspace` resolves (its build links the
+# binaries too), so after that command nothing is rebuilt.
 HOST_CARGO="$(command -v cargo)"
 case "$HOST_CARGO" in /usr/bin/cargo) [ -x "$HOME/.cargo/bin/cargo" ] && HOST_CARGO="$HOME/.cargo/bin/cargo" ;; esac
-"$HOST_CARGO" build -q --manifest-path "$FW_DIR/Cargo.toml" -p fsm-firmware --bin fsm-firmware
+"$HOST_CARGO" test -q --manifest-path "$FW_DIR/../Cargo.toml" --workspace --no-run
 TARGET_DIR="$("$HOST_CARGO" metadata --format-version 1 --no-deps --manifest-path "$FW_DIR/Cargo.toml" \
     | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')"
 TOOL="$TARGET_DIR/debug/fsm-firmware"
