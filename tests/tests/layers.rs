@@ -2,7 +2,7 @@
 //! and a package's dependencies (normal and build, read from `cargo metadata`) may name only
 //! packages of a lower layer. A crate reaching up or sideways (`fsm-geometry` using `fsm-scan`,
 //! the simulator using the CLI) fails here with both names. Dev-dependencies are free: tests may
-//! use anything. The core's own modules are held to their order by `core/tests/layers.rs`.
+//! use anything. The core's own modules are held to their order by `core/tests/suite/layers.rs`.
 
 use std::process::Command;
 

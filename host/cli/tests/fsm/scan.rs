@@ -220,7 +220,7 @@ fn the_demo_reports_the_papers_comparison() {
     // The fast decoder (local maxima of the magnitude) at this camera size: a pixel sees about
     // 6 projector columns, whose magnitude peak splits at the light's edges, so it fails where
     // the full decoder does not (at 320 x 240, 2.4 columns per pixel, it finds 90% of these
-    // pixels; see core/tests/local_maxima.rs). The report says so rather than hiding it.
+    // pixels; see core/tests/suite/local_maxima.rs). The report says so rather than hiding it.
     assert!(
         share("EFSM-fast") < share("EFSM"),
         "EFSM-fast {} vs EFSM {}",

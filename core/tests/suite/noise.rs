@@ -3,7 +3,7 @@
 //! profile's column noise `σ·√(2/span)`, which sets the cosine search's threshold. The tests
 //! fail if the measured variance leaves ±25% of the prediction (±10% for the profile).
 
-mod support;
+use crate::support;
 
 use fsm_core::noise::{dft_magnitude_variance, gaussian_column_variance, profile_noise_dn};
 use fsm_core::{Decoder, FringeBand, Group, Method, PeakEstimator, Row, ScanPlan};

@@ -1,6 +1,6 @@
 //! Property tests over random plans, columns, amplitudes, blur and noise.
 
-mod support;
+use crate::support;
 
 use fsm_core::{BlockCoding, FringeBand, Group, GroupCount, Method, PixelCandidates, ScanPlan};
 use proptest::prelude::*;

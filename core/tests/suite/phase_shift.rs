@@ -1,6 +1,6 @@
 //! The phase-shift baseline: exact on direct light, wrong under interreflection (paper §III-B).
 
-mod support;
+use crate::support;
 
 use fsm_core::phase_shift::{PhaseShiftError, PhaseShiftPattern};
 use fsm_core::{ColumnRange, PatternSequence, PhaseShiftPlan, PixelCandidates, ScanPlan};

@@ -2,7 +2,7 @@
 //! against the spectrum the decoder computes from frames rendered with the plan's own pattern
 //! function: the three cannot disagree.
 
-mod support;
+use crate::support;
 
 use fsm_core::{Decoder, Group, GroupCount, Row, ScanPlan, Window};
 use support::Pixel;

@@ -1,6 +1,6 @@
 //! Byte formats: round trips, and every kind of damage is reported, never returned as data.
 
-mod support;
+use crate::support;
 
 use fsm_core::wire::candidates::{self, CandidateHeader};
 use fsm_core::wire::row_dump::{self, RowDumpHeader};

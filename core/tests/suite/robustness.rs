@@ -1,7 +1,7 @@
 //! No input makes the decoder panic, saturated pixels are flagged, and malformed rows are
 //! refused with an error that says what is wrong.
 
-mod support;
+use crate::support;
 
 use fsm_core::{
     ColumnRange, Decoder, DecoderError, GroupCount, PixelCandidates, PixelFlags, PlanError, Row,

@@ -2,9 +2,9 @@
 //! what it finds and how accurately, on synthetic pixels (12-bit samples, 1 DN read noise),
 //! next to the default CLEAN search on the same pixels.
 //!
-//! `cargo test -p fsm-core --release --test local_maxima -- --nocapture` prints the figures.
+//! `cargo test -p fsm-core --release --test suite local_maxima:: -- --nocapture` prints the figures.
 
-mod support;
+use crate::support;
 
 use fsm_core::{
     DecodeSettings, GroupCount, PeakEstimator, PeakSearch, PixelCandidates, ScanPlan, Window,

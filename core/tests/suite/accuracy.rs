@@ -1,7 +1,7 @@
 //! Decoding accuracy on synthetic pixels: every projector column, blurred spots at fractional
 //! positions, and pairs of lights more than 2Δc apart (§IV-C). 12-bit samples, 1 DN read noise.
 
-mod support;
+use crate::support;
 
 use fsm_core::{GroupCount, GroupSet, PixelFlags, ScanPlan};
 use support::{decode_all, nearest_error, Harness, Noise, Pixel};

@@ -4,9 +4,9 @@
 //! centroid of the light's columns in the exact profile, the default) beside CLEAN with each
 //! estimator; the default estimator of CLEAN is the one with the smallest error on the light a
 //! projector can actually produce (mixtures of whole columns).
-//! `cargo test -p fsm-core --test estimators -- --nocapture` prints the table.
+//! `cargo test -p fsm-core --test suite estimators:: -- --nocapture` prints the table.
 
-mod support;
+use crate::support;
 
 use fsm_core::{Group, GroupCount, Pattern, PeakEstimator, PeakSearch, ScanPlan};
 use support::{Harness, Noise, Pixel};

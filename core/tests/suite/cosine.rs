@@ -1,9 +1,9 @@
 //! The cosine search on synthetic pixels with the noise of a real sensor (read noise and photon
 //! shot noise, stated in the plan as a datasheet gives them): two lights whose footprints
 //! nearly touch, and a direct light under a broad glossy lobe that carries ten times its
-//! energy. `cargo test -p fsm-core --release --test cosine -- --nocapture` prints the figures.
+//! energy. `cargo test -p fsm-core --release --test suite cosine:: -- --nocapture` prints the figures.
 
-mod support;
+use crate::support;
 
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan, SensorNoise};
 use support::Noise;

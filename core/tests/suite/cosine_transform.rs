@@ -2,7 +2,7 @@
 //! from 8 to 2048 (the range: powers of two, the paper's 768 = 3·256, primes), and the
 //! vector path against the scalar one bit for bit. The default run takes every span to 600 and
 //! every fifth above (with 768, 1024, 1536, 2048); every span to 2048 and the worst error:
-//! `cargo test -p fsm-core --release --test cosine_transform -- --ignored --nocapture`
+//! `cargo test -p fsm-core --release --test suite cosine_transform:: -- --ignored --nocapture`
 //! (worst 8.6e-6 of the profile's largest value, at span 1966).
 
 use fsm_core::transform::{CosineTransform, Lanes};

@@ -5,7 +5,7 @@
 //! The pixels are synthetic: light from a defocused projector (Gaussian spread of 0.6 column
 //! over whole projector columns) centred on the paper's columns, 12-bit samples, 1 DN noise.
 
-mod support;
+use crate::support;
 
 use fsm_core::{Group, GroupCount, PixelCandidates, ScanPlan};
 use support::{Harness, Noise, Pixel};
