@@ -57,7 +57,7 @@ fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
     assert_eq!(points as u64 + without, 96 * 72, "{summary}");
     // Against the simulator's truth, every point counted. Measured at this small camera (a
     // pixel's footprint is 2.6 mm): 3.9% of the points more than 1 mm off, 89.7% of the lit
-    // pixels right; at 320 x 240 the same scene has 0.10% (tests/tests/wrong_points.rs).
+    // pixels right; at 320 x 240 the same scene has 0.10% (tests/tests/workspace/wrong_points.rs).
     let truth = &summary["truth"];
     let count = |field: &str| truth[field].as_u64().unwrap();
     assert_eq!(count("points") as usize, points, "{summary}");

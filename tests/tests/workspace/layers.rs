@@ -82,7 +82,7 @@ fn violations(packages: &[Package]) -> Vec<String> {
     for p in packages {
         let Some(from) = layer_of(&p.name) else {
             found.push(format!(
-                "{} is in no layer of tests/tests/layers.rs",
+                "{} is in no layer of tests/tests/workspace/layers.rs",
                 p.name
             ));
             continue;
@@ -94,7 +94,9 @@ fn violations(packages: &[Package]) -> Vec<String> {
                     "{} (layer {from}) depends on {d} (layer {to}): only lower layers",
                     p.name
                 )),
-                None => found.push(format!("{d} is in no layer of tests/tests/layers.rs")),
+                None => found.push(format!(
+                    "{d} is in no layer of tests/tests/workspace/layers.rs"
+                )),
             }
         }
     }

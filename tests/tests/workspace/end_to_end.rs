@@ -1,9 +1,9 @@
 //! First end-to-end checks: simulated captures decoded by `fsm_core::Decoder`, against the
 //! simulator's ground truth. A band of rows of the default bench (320 × 240 camera) keeps the
 //! default run in seconds; the full-image runs are `#[ignore]`d:
-//! `cargo test -p fsm-tests --release --test end_to_end -- --ignored --nocapture`.
+//! `cargo test -p fsm-tests --release --test workspace end_to_end:: -- --ignored --nocapture`.
 
-mod support;
+use crate::support;
 
 use std::time::Instant;
 
@@ -201,9 +201,9 @@ fn figures(d: &support::Decoded) -> Figures {
 }
 
 /// Full 320 × 240 images of `plane` and `plane_mirror`, BFSM and EFSM (two groups, cB 64):
-/// `cargo test -p fsm-tests --release --test end_to_end -- --ignored --nocapture full_image`.
+/// `cargo test -p fsm-tests --release --test workspace end_to_end::full_image -- --ignored --nocapture`.
 #[test]
-#[ignore = "full-size run (about a minute): cargo test -p fsm-tests --release --test end_to_end -- --ignored --nocapture full_image"]
+#[ignore = "full-size run (about a minute): cargo test -p fsm-tests --release --test workspace end_to_end::full_image -- --ignored --nocapture"]
 fn full_image_accuracy_of_bfsm_and_efsm() {
     let system = System::bench();
     for scene in ["plane", "plane_mirror"] {
@@ -245,9 +245,9 @@ fn full_image_accuracy_of_bfsm_and_efsm() {
 /// SPEC §7: with a sharp projector and a camera that out-resolves it (1280 × 960: 0.46 column
 /// per pixel), every decoder is off the geometric truth by up to ±0.5 column; the default blur
 /// removes the error.
-/// `cargo test -p fsm-tests --release --test end_to_end -- --ignored --nocapture sharp_projector`.
+/// `cargo test -p fsm-tests --release --test workspace end_to_end::sharp_projector -- --ignored --nocapture`.
 #[test]
-#[ignore = "1280 x 960 band: cargo test -p fsm-tests --release --test end_to_end -- --ignored --nocapture sharp_projector"]
+#[ignore = "1280 x 960 band: cargo test -p fsm-tests --release --test workspace end_to_end::sharp_projector -- --ignored --nocapture"]
 fn sharp_projector_puts_every_decoder_off_by_up_to_half_a_column() {
     let mut worst = Vec::new();
     for sigma in [0.0, 0.7] {

@@ -4,10 +4,10 @@
 //! the simulator's ground truth and with each other (paper Fig. 9).
 //!
 //! The default run scans a band of rows across the mirror's reflection; the whole image is
-//! `cargo test -p fsm-tests --release --test scan -- --ignored --nocapture`. The figures print
+//! `cargo test -p fsm-tests --release --test workspace scan:: -- --ignored --nocapture`. The figures print
 //! with `--nocapture`.
 
-mod support;
+use crate::support;
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -305,7 +305,7 @@ fn bfsm_efsm_and_ps_on_a_band_across_the_mirror() {
 }
 
 #[test]
-#[ignore = "whole 320 x 240 image: cargo test -p fsm-tests --release --test scan -- --ignored --nocapture"]
+#[ignore = "whole 320 x 240 image: cargo test -p fsm-tests --release --test workspace scan:: -- --ignored --nocapture"]
 fn bfsm_efsm_and_ps_on_the_whole_image() {
     compare_methods(0..240);
 }

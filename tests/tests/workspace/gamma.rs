@@ -16,7 +16,7 @@
 //!    accuracy.
 //!
 //! A band of 8 rows of the 320 × 240 bench keeps it to a few seconds:
-//! `cargo test -p fsm-tests --test gamma -- --nocapture` prints the measured numbers.
+//! `cargo test -p fsm-tests --test workspace gamma:: -- --nocapture` prints the measured numbers.
 
 use std::sync::Arc;
 

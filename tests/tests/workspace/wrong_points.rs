@@ -10,9 +10,9 @@
 //!   within 1 mm of the truth.
 //!
 //! The default run scans a band of rows of each scene; the whole images are
-//! `cargo test -p fsm-tests --release --test wrong_points -- --ignored --nocapture`.
+//! `cargo test -p fsm-tests --release --test workspace wrong_points:: -- --ignored --nocapture`.
 
-mod support;
+use crate::support;
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -137,7 +137,7 @@ fn every_point_is_right_or_absent_on_a_band_of_each_scene() {
 }
 
 #[test]
-#[ignore = "whole images: cargo test -p fsm-tests --release --test wrong_points -- --ignored --nocapture"]
+#[ignore = "whole images: cargo test -p fsm-tests --release --test workspace wrong_points:: -- --ignored --nocapture"]
 fn every_point_is_right_or_absent_on_the_whole_images() {
     right_or_absent(0..240);
 }

@@ -7,9 +7,9 @@
 //!
 //! The default run decodes a band of `vgroove_glossy` (rough metal: indirect light about 13×
 //! the direct, spread over tens of columns); the whole images of every scene are
-//! `cargo test -p fsm-tests --release --test decoders -- --ignored --nocapture`.
+//! `cargo test -p fsm-tests --release --test workspace decoders:: -- --ignored --nocapture`.
 
-mod support;
+use crate::support;
 
 use fsm_core::{GroupCount, PixelFlags, ScanPlan};
 use fsm_sim::{Sensor, SurfaceClass, System};
@@ -119,7 +119,7 @@ fn the_direct_light_under_a_glossy_lobe_is_among_the_candidates() {
 
 /// Every preset, whole images.
 #[test]
-#[ignore = "whole images of every scene (a few minutes): cargo test -p fsm-tests --release --test decoders -- --ignored --nocapture"]
+#[ignore = "whole images of every scene (a few minutes): cargo test -p fsm-tests --release --test workspace decoders:: -- --ignored --nocapture"]
 fn every_scene_whole_image() {
     for scene in fsm_sim::scene::presets::NAMES {
         for (name, plan) in plans() {
