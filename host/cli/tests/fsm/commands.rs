@@ -9,10 +9,6 @@ use crate::flat_wall::{entries, FlatWall};
 use crate::run::{fails, ok, s};
 use fsm_io::candidate_file::{CandidateReader, HostCandidates, CANDIDATE_FILE_NAME};
 
-/// Runs `fsm` expecting success; returns stdout.
-
-/// Runs `fsm` expecting failure; returns stderr.
-
 /// A scan folder: EFSM two groups, 3 camera rows, 12-bit flat-wall captures.
 struct Scan {
     dir: tempfile::TempDir,
