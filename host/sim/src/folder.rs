@@ -92,7 +92,7 @@ impl std::fmt::Display for BoardPlacement {
 }
 
 /// The poses of `fsm simulate --board-poses`, in order: the first nine of
-/// host/calibrate/tests/end_to_end.rs,
+/// host/calibrate/tests/suite/end_to_end.rs,
 /// which calibrate the bench to its thresholds (every one tilted by 15° or more). The first four
 /// already turn about four different axes. (The end-to-end test adds boards parallel to the
 /// image and turned by 90°, which pin the principal point down better.)

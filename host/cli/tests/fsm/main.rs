@@ -2,7 +2,7 @@
 //! one link for all of them): `cargo test -p fsm-cli --test fsm [module::test]`.
 
 // A flat white wall in front of the projector, shared with fsm-io's tests.
-#[path = "../../../io/tests/support/mod.rs"]
+#[path = "../../../io/tests/suite/support/mod.rs"]
 mod flat_wall;
 mod run;
 

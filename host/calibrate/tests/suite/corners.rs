@@ -2,9 +2,9 @@
 //!
 //! The simulator renders the bench's 9 × 6 board (20 mm squares) at a pose; the true pixel of
 //! each corner is its projection through the bench camera model. Default run:
-//! `cargo test -p fsm-calibrate --test corners -- --nocapture` (prints the measured errors).
+//! `cargo test -p fsm-calibrate --test suite corners:: -- --nocapture` (prints the measured errors).
 //! Many more poses and a 640 × 480 camera:
-//! `cargo test -p fsm-calibrate --test corners -- --ignored --nocapture`.
+//! `cargo test -p fsm-calibrate --test suite corners:: -- --ignored --nocapture`.
 
 use std::path::PathBuf;
 
@@ -169,7 +169,7 @@ fn corners_match_the_true_projection_with_default_sensor_noise() {
 /// camera and a 640 × 480 one. Measured: worst pose RMS 0.0058 px clean, 0.0069 px noisy, worst
 /// corner 0.016 px (320 × 240); 0.0041, 0.0052 and 0.013 px (640 × 480). Corners whose
 /// windows the image's border cuts are among them.
-/// `cargo test -p fsm-calibrate --test corners -- --ignored --nocapture`
+/// `cargo test -p fsm-calibrate --test suite corners:: -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn corners_over_many_poses_and_two_cameras() {
@@ -625,7 +625,7 @@ fn fronto_parallel_corners_at_the_default_rays() {
 /// rays: the detector's own accuracy on aligned edges, with the renderer's coverage noise made
 /// negligible. What correlates with the pixel phase is the detector's own pixel-phase bias of
 /// ≈ 0.01 px (`corners::tests::refinement_pixel_phase_bias_on_aligned_junctions`).
-/// `cargo test -p fsm-calibrate --test corners fronto -- --ignored --nocapture` (minutes)
+/// `cargo test -p fsm-calibrate --test suite corners::fronto -- --ignored --nocapture` (minutes)
 #[test]
 #[ignore]
 fn fronto_parallel_poses_with_fine_rays() {

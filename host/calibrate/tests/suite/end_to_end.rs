@@ -11,7 +11,7 @@
 //! 0.005 mm.
 //!
 //! Two tests share the renders (about 30 s in the test profile on two cores; run
-//! `cargo test -p fsm-calibrate --test end_to_end -- --nocapture` for the figures):
+//! `cargo test -p fsm-calibrate --test suite end_to_end:: -- --nocapture` for the figures):
 //! `calibrates_from_true_corner_pixels` uses the simulator's true corner pixels, so it checks
 //! everything after corner detection (render, decode, local column fits, calibration);
 //! `calibrates_from_detected_corners` runs the whole chain with `corners::detect`, with and
@@ -42,7 +42,7 @@
 //! not moved), fx +0.007% to +0.014% in all of them: the ray pattern, and its error, is the
 //! same in every seed.
 
-mod support;
+use crate::support;
 
 use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::{calibrate, corners, CalibrationSettings, ColumnMap, PoseObservation};
@@ -389,7 +389,7 @@ fn calibrates_from_detected_corners() {
 /// The same chain with a 640 × 480 camera of the same field (half the angle per pixel).
 /// Measured: corners 0.0030 px from the truth, camera fx +0.002% (stated σ 0.001%), the plane
 /// raw 0.022 mm in 3D and 0.009 mm in depth, 0.0003 mm after alignment. About 115 s in release,
-/// 84 of them rendering: `cargo test -p fsm-calibrate --release --test end_to_end -- --ignored
+/// 84 of them rendering: `cargo test -p fsm-calibrate --release --test suite end_to_end:: -- --ignored
 /// --nocapture`.
 #[test]
 #[ignore]

@@ -3,7 +3,7 @@
 //! 0.02 px of Gaussian noise, and column maps computed from the bench's true geometry with
 //! 0.004 column of noise (no rendering, so this runs in seconds).
 
-mod support;
+use crate::support;
 
 use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::{calibrate, CalibrationSettings, ColumnMap, PoseObservation};

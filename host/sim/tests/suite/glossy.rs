@@ -420,7 +420,7 @@ fn vgroove_glossy_is_in_the_glossy_interreflection_regime() {
 }
 
 #[test]
-#[ignore = "whole image, 6–10 s in release: cargo test -p fsm-sim --release --test glossy -- --ignored --nocapture"]
+#[ignore = "whole image, 6–10 s in release: cargo test -p fsm-sim --release --test suite glossy:: -- --ignored --nocapture"]
 fn vgroove_glossy_regime_over_the_whole_image() {
     let system = System::bench();
     let scene = Scene::preset("vgroove_glossy").unwrap();

@@ -3,7 +3,7 @@
 //! decode to the projector column of every pixel within 0.05 column — BFSM and EFSM with two
 //! groups — and the candidate file, the column map and the preview agree.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 

@@ -5,7 +5,7 @@
 //! Tolerances are measured figures with margin (see the `eprintln!` lines, `--nocapture`):
 //! each test prints what it measured.
 
-mod support;
+use crate::support;
 
 use fsm_calibrate::calibrate::corner_points;
 use fsm_calibrate::homography::{homography, local_column, transform, LocalColumnSettings};

@@ -2,7 +2,7 @@
 //! flipped bytes, truncation, padding, duplicates and a foreign plan; arbitrary bytes never
 //! panic the reader.
 
-mod support;
+use crate::support;
 
 use std::io::Cursor;
 use std::path::Path;
