@@ -3,7 +3,7 @@
 //! the calibration's column limits, triangulate, select, and score against the ground truth.
 //!
 //! [`scan_capture`] is the one path from a simulated capture to a [`Surface`]; [`run`] scans
-//! `plane_mirror`, `plane_mirror_covered` and `vgroove_glossy` with every [`METHODS`] entry and
+//! `plane_mirror`, `plane_mirror_covered` and `vgroove_glossy` with every method of [`Plans`] and
 //! writes each scan's outputs, [`markdown`] turns the [`Report`] into `report.md`.
 
 use std::path::Path;
@@ -51,8 +51,8 @@ pub struct Scanned {
 }
 
 /// Decodes every row of `capture` with `method` and the calibration's column limits,
-/// triangulates and selects with `params`: the library path of `fsm scan`, `fsm demo` and the
-/// workspace's scan tests.
+/// triangulates and selects with `params` (the stages `fsm scan` runs on a real capture): the
+/// path of `fsm demo` and of the workspace's scan tests.
 pub fn scan_capture(
     capture: &Capture,
     method: Method<'_>,
@@ -154,39 +154,53 @@ pub struct Report {
     pub seed: u64,
     /// Pixels of `plane_mirror` with more than 20% of their light through the mirror.
     pub interreflection_pixels: usize,
-    /// One entry per method, in [`METHODS`] order.
+    /// One entry per method, in [`Plans::methods`] order.
     pub methods: Vec<MethodReport>,
 }
 
-/// The compared methods: the paper's BFSM and EFSM (cB 64, two groups) decoded by the cosine
-/// search; the same captures decoded by CLEAN on the zero-padded DFT (as before the cosine
-/// search); phase shift + Gray code; the EFSM patterns decoded by the paper's local maxima (as
-/// a camera can at frame rate).
-pub const METHODS: [&str; 6] = [
-    "BFSM",
-    "EFSM",
-    "BFSM-CLEAN",
-    "EFSM-CLEAN",
-    "PS",
-    "EFSM-fast",
-];
+/// The compared methods' plans: the paper's BFSM and EFSM (cB 64, two groups) decoded by the
+/// cosine search; the same captures decoded by CLEAN on the zero-padded DFT (as before the
+/// cosine search); phase shift + Gray code; the EFSM patterns decoded by the paper's local
+/// maxima (as a camera can at frame rate). The FSM plans state the simulated camera's sensor,
+/// as a user states theirs.
+pub struct Plans {
+    bfsm: ScanPlan,
+    efsm: ScanPlan,
+    bfsm_clean: ScanPlan,
+    efsm_clean: ScanPlan,
+    efsm_fast: ScanPlan,
+    phase_shift: PhaseShiftPlan,
+}
 
-/// The plans of [`METHODS`], in order. The FSM plans state the simulated camera's sensor, as a
-/// user states theirs.
-fn plans() -> (Vec<ScanPlan>, PhaseShiftPlan) {
-    let sensor = Sensor::default().datasheet();
-    let fsm = [
-        ScanPlan::paper_bfsm(),
-        ScanPlan::paper_efsm(GroupCount::Two),
-        ScanPlan::paper_bfsm().with_clean(),
-        ScanPlan::paper_efsm(GroupCount::Two).with_clean(),
-        ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima(),
-    ]
-    .map(|mut plan| {
-        plan.decoding.sensor = sensor;
-        plan
-    });
-    (fsm.to_vec(), PhaseShiftPlan::paper())
+impl Plans {
+    /// The paper's plans, stating the default simulated sensor.
+    pub fn paper() -> Plans {
+        let sensor = Sensor::default().datasheet();
+        let stated = |mut plan: ScanPlan| {
+            plan.decoding.sensor = sensor;
+            plan
+        };
+        Plans {
+            bfsm: stated(ScanPlan::paper_bfsm()),
+            efsm: stated(ScanPlan::paper_efsm(GroupCount::Two)),
+            bfsm_clean: stated(ScanPlan::paper_bfsm().with_clean()),
+            efsm_clean: stated(ScanPlan::paper_efsm(GroupCount::Two).with_clean()),
+            efsm_fast: stated(ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima()),
+            phase_shift: PhaseShiftPlan::paper(),
+        }
+    }
+
+    /// Every method with its name in the tables, in the report's order.
+    pub fn methods(&self) -> [(&'static str, Method<'_>); 6] {
+        [
+            ("BFSM", Method::Fsm(&self.bfsm)),
+            ("EFSM", Method::Fsm(&self.efsm)),
+            ("BFSM-CLEAN", Method::Fsm(&self.bfsm_clean)),
+            ("EFSM-CLEAN", Method::Fsm(&self.efsm_clean)),
+            ("PS", Method::PhaseShift(&self.phase_shift)),
+            ("EFSM-fast", Method::Fsm(&self.efsm_fast)),
+        ]
+    }
 }
 
 /// The capture of `method`'s patterns through `transport` by `sensor`.
@@ -256,19 +270,11 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
         ("plane_mirror_covered", transport("plane_mirror_covered")?),
     ];
     let glossy = transport("vgroove_glossy")?;
-    let (fsm, ps) = plans();
-    let methods: [Method<'_>; 6] = [
-        Method::Fsm(&fsm[0]),
-        Method::Fsm(&fsm[1]),
-        Method::Fsm(&fsm[2]),
-        Method::Fsm(&fsm[3]),
-        Method::PhaseShift(&ps),
-        Method::Fsm(&fsm[4]),
-    ];
+    let plans = Plans::paper();
     let params = SelectionParams::for_calibration(&system.calibration);
     let mut truth_pixels: Vec<PixelTruth> = Vec::new();
     let mut reports = Vec::new();
-    for (name, method) in METHODS.into_iter().zip(methods) {
+    for (name, method) in plans.methods() {
         let started = Instant::now();
         let mut surfaces = Vec::new();
         for (scene, t) in &scenes {
