@@ -32,11 +32,6 @@ pub const WRONG_BEYOND_MM: f64 = 1.0;
 /// The bench's standoff, mm: what the paper's errors are given as a share of.
 pub const STANDOFF_MM: f64 = 500.0;
 
-/// A simulator error as a host error (the comparison writes files through `fsm_io`).
-fn sim_error(e: impl std::fmt::Display) -> Error {
-    Error::Usage(format!("simulation: {e}"))
-}
-
 /// One scan of a simulated capture: the surface, the truth of its pixels (row-major, the
 /// capture's rows), the decoded candidates and the stages' times.
 pub struct Scanned {
@@ -69,7 +64,7 @@ pub fn scan_capture(
         rows,
         capture.bit_depth(),
         Some(&limits),
-        |y| capture.row(y as u32).map_err(sim_error),
+        |y| capture.row(y as u32).map_err(Error::from),
     )?;
     let decode_seconds = started.elapsed().as_secs_f64();
     let (surface, times) = Surface::reconstruct(&decoded, &system.calibration, params);
@@ -77,11 +72,11 @@ pub fn scan_capture(
         .rows()
         .flat_map(|y| (0..width as u32).map(move |x| (x, y)))
         .map(|(x, y)| {
-            capture
-                .ground_truth()
-                .pixel(x, y)
-                .copied()
-                .ok_or_else(|| sim_error(format!("no truth for the rendered pixel ({x}, {y})")))
+            capture.ground_truth().pixel(x, y).copied().ok_or_else(|| {
+                Error::Usage(format!(
+                    "simulation: no truth for the rendered pixel ({x}, {y})"
+                ))
+            })
         })
         .collect::<Result<_>>()?;
     Ok(Scanned {
@@ -215,7 +210,7 @@ pub fn capture_of(
         Method::Fsm(p) => Capture::new(transport.clone(), p, system, sensor, seed),
         Method::PhaseShift(p) => Capture::new(transport.clone(), p, system, sensor, seed),
     }
-    .map_err(sim_error)
+    .map_err(Error::from)
 }
 
 /// The paper's Fig. 9 figures of a scan `with` the mirror against one `without`, over the
@@ -260,10 +255,10 @@ fn fingerprint(method: Method<'_>) -> u64 {
 pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> Result<Report> {
     let (w, h) = (system.width() as usize, system.height() as usize);
     let transport = |name: &str| -> Result<Arc<LightTransport>> {
-        let scene = Scene::by_name(name).map_err(sim_error)?;
+        let scene = Scene::by_name(name).map_err(Error::from)?;
         LightTransport::compute(&scene, system, &TransportSettings::default())
             .map(Arc::new)
-            .map_err(sim_error)
+            .map_err(Error::from)
     };
     let scenes = [
         ("plane_mirror", transport("plane_mirror")?),

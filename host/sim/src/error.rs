@@ -91,3 +91,11 @@ impl fmt::Display for SimError {
 }
 
 impl std::error::Error for SimError {}
+
+/// A simulation's error as the host's, for the writers and the comparison that go through
+/// `fsm_io` (the message says it came from the simulation).
+impl From<SimError> for fsm_io::Error {
+    fn from(e: SimError) -> fsm_io::Error {
+        fsm_io::Error::Usage(format!("simulation: {e}"))
+    }
+}

@@ -16,10 +16,6 @@ use fsm_io::{Error, Result};
 use crate::target::{self, BoardPose};
 use crate::{Capture, Scene, Sensor, System, TransportSettings};
 
-fn sim_error(e: impl std::fmt::Display) -> Error {
-    Error::Usage(format!("simulation: {e}"))
-}
-
 /// A scene's folder: `plan.toml`, `calibration.toml`, `scan.dump` (or `images/0000.png…`
 /// with `images`), and `truth/` ([`write_truth`]). `dir` exists.
 pub fn write_scene(
@@ -38,7 +34,7 @@ pub fn write_scene(
     } else {
         capture
             .write_row_dump_file(&dir.join("scan.dump"))
-            .map_err(sim_error)?;
+            .map_err(Error::from)?;
     }
     write_truth(capture, &dir.join("truth"))
 }
@@ -169,7 +165,7 @@ pub fn capture_of(
         ..TransportSettings::default()
     };
     crate::simulate_with(plan, scene, system, &Sensor::default(), seed, &settings)
-        .map_err(sim_error)
+        .map_err(Error::from)
 }
 
 fn write_calibration(system: &System, path: &Path) -> Result<()> {
@@ -324,7 +320,7 @@ pub fn write_stack(capture: &Capture, plan: &ScanPlan, dir: &Path) -> Result<()>
     let frames = plan.sequence_len();
     let mut images = vec![0u16; frames * w * h];
     for y in 0..h {
-        let row = capture.row(y as u32).map_err(sim_error)?;
+        let row = capture.row(y as u32).map_err(Error::from)?;
         for i in 0..frames {
             images[(i * h + y) * w..(i * h + y + 1) * w].copy_from_slice(&row[i * w..(i + 1) * w]);
         }

@@ -128,10 +128,6 @@ pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     Ok((parse(w)?, parse(h)?))
 }
 
-fn sim_error(e: impl std::fmt::Display) -> Error {
-    Error::Usage(format!("simulation: {e}"))
-}
-
 pub fn run(args: Args) -> Result<()> {
     if args.scene == CHECKERBOARD {
         return run_board(args);
@@ -149,7 +145,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let plan = plan_of(&args, None)?;
-    let scene = Scene::by_name(&args.scene).map_err(sim_error)?;
+    let scene = Scene::by_name(&args.scene).map_err(Error::from)?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     let staged = StagedDir::create(&args.out, args.force)?;
     let capture = folder::capture_of(&scene, &plan, &system, args.seed, args.supersampling)?;
