@@ -87,22 +87,136 @@ impl std::fmt::Display for BoardPlacement {
     }
 }
 
-/// The poses of `fsm simulate --board-poses`, in order: the first nine of
-/// host/calibrate/tests/suite/end_to_end.rs,
-/// which calibrate the bench to its thresholds (every one tilted by 15° or more). The first four
-/// already turn about four different axes. (The end-to-end test adds boards parallel to the
-/// image and turned by 90°, which pin the principal point down better.)
-pub const SPREAD: [BoardPlacement; 9] = [
-    BoardPlacement::new(15.0, -15.0, 0.0, 540.0),
-    BoardPlacement::new(30.0, 0.0, 5.0, 560.0),
-    BoardPlacement::new(-30.0, 0.0, -5.0, 560.0),
-    BoardPlacement::new(0.0, 30.0, 0.0, 560.0),
-    BoardPlacement::new(0.0, -30.0, 8.0, 560.0),
-    BoardPlacement::new(20.0, 20.0, 10.0, 580.0),
-    BoardPlacement::new(-20.0, -20.0, -10.0, 570.0),
-    BoardPlacement::new(20.0, -20.0, 0.0, 560.0),
-    BoardPlacement::new(-20.0, 20.0, 5.0, 560.0),
+/// The board poses the bench is calibrated from (fsm-calibrate's end-to-end test).
+///
+/// (yaw, pitch, roll) degrees, centre of the corner grid (camera frame, mm). The first nine
+/// (those of `fsm simulate --board-poses`) are tilted by 15–30° about four axes; then two
+/// boards parallel to the image, their edges along the pixel grid (one centred, one offset by
+/// (¼, ½) px); then six turned by ±90° (portrait: the corners reach the top and bottom of the
+/// image), four of them tilted by 25°.
+///
+/// What the poses are for: the principal point. The camera's tangential distortion is free, and
+/// with the bench camera's narrow field (28°) a shift of the principal point is nearly the
+/// same as a turn of the whole camera frame plus a change of `p1`, `p2`: only the perspective
+/// of the turn, largest at the image's rim, tells them apart. With corners of 0.02 px noise
+/// per axis (iid, synthetic, 8 trials), the first nine poses leave the principal point
+/// σ = (0.41, 0.27) px (the plane 0.49 mm RMS off in 3D, raw); with the 17 here (0.21,
+/// 0.19) px and 0.29 mm (measured; `p1 = p2 = 0` held fixed would give σ ≈ 0.1 px but a biased
+/// principal point, the bench having `p1 = 5e-4`, `p2 = −3e-4`). Close boards (400 mm) would
+/// help more but leave the projector's field; so would many more poses (σ falls as 1/√N).
+/// With the simulator's former fixed 4 × 4 ray grid, the two fronto-parallel boards were off
+/// by up to ±1/8 px along their grid-aligned edges (the plane 0.089% off); the rays are now
+/// multi-jittered per pixel (`fsm_sim::transport::footprint`).
+pub const CALIBRATION_POSES: [BoardPlacement; 17] = [
+    BoardPlacement {
+        yaw_deg: 15.0,
+        pitch_deg: -15.0,
+        roll_deg: 0.0,
+        centre_mm: [0.0, 0.0, 540.0],
+    },
+    BoardPlacement {
+        yaw_deg: 30.0,
+        pitch_deg: 0.0,
+        roll_deg: 5.0,
+        centre_mm: [0.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: -30.0,
+        pitch_deg: 0.0,
+        roll_deg: -5.0,
+        centre_mm: [0.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: 0.0,
+        pitch_deg: 30.0,
+        roll_deg: 0.0,
+        centre_mm: [0.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: 0.0,
+        pitch_deg: -30.0,
+        roll_deg: 8.0,
+        centre_mm: [0.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: 20.0,
+        pitch_deg: 20.0,
+        roll_deg: 10.0,
+        centre_mm: [0.0, 0.0, 580.0],
+    },
+    BoardPlacement {
+        yaw_deg: -20.0,
+        pitch_deg: -20.0,
+        roll_deg: -10.0,
+        centre_mm: [0.0, 0.0, 570.0],
+    },
+    BoardPlacement {
+        yaw_deg: 20.0,
+        pitch_deg: -20.0,
+        roll_deg: 0.0,
+        centre_mm: [0.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: -20.0,
+        pitch_deg: 20.0,
+        roll_deg: 5.0,
+        centre_mm: [0.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: 0.0,
+        pitch_deg: 0.0,
+        roll_deg: 0.0,
+        centre_mm: [0.0, 0.0, 540.0],
+    },
+    BoardPlacement {
+        yaw_deg: 0.0,
+        pitch_deg: 0.0,
+        roll_deg: 0.0,
+        centre_mm: [0.1875, 0.375, 480.0],
+    },
+    BoardPlacement {
+        yaw_deg: -2.0,
+        pitch_deg: 6.0,
+        roll_deg: 90.0,
+        centre_mm: [66.0, -7.0, 574.0],
+    },
+    BoardPlacement {
+        yaw_deg: 4.0,
+        pitch_deg: -11.0,
+        roll_deg: 90.0,
+        centre_mm: [-34.0, -5.0, 527.0],
+    },
+    BoardPlacement {
+        yaw_deg: -25.0,
+        pitch_deg: 0.0,
+        roll_deg: 90.0,
+        centre_mm: [40.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: 25.0,
+        pitch_deg: 0.0,
+        roll_deg: 90.0,
+        centre_mm: [-20.0, 0.0, 540.0],
+    },
+    BoardPlacement {
+        yaw_deg: 0.0,
+        pitch_deg: 25.0,
+        roll_deg: -90.0,
+        centre_mm: [30.0, 0.0, 560.0],
+    },
+    BoardPlacement {
+        yaw_deg: 0.0,
+        pitch_deg: -25.0,
+        roll_deg: -90.0,
+        centre_mm: [-10.0, 0.0, 540.0],
+    },
 ];
+
+/// The poses of `fsm simulate --board-poses`, in order: the first nine of
+/// [`CALIBRATION_POSES`], which calibrate the bench to its thresholds (every one tilted by 15°
+/// or more; the first four already turn about four different axes). The other eight add boards
+/// parallel to the image and turned by 90°, which pin the principal point down better.
+pub const SPREAD: &[BoardPlacement] = CALIBRATION_POSES.split_at(9).0;
 
 /// `YAW,PITCH,ROLL,Z` or `YAW,PITCH,ROLL,X,Y,Z` (degrees, mm), the angles within ±80° and the
 /// board in front of the camera.

@@ -7,7 +7,7 @@ use crate::support;
 
 use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::{calibrate, CalibrationSettings, ColumnMap, PoseObservation};
-use fsm_sim::target::{self, BoardPose};
+use fsm_sim::target;
 use fsm_sim::System;
 use nalgebra::{Point2, Point3};
 use support::POSES;
@@ -40,8 +40,8 @@ fn observations(keep: impl Fn(Point2<f64>, &[Point2<f64>]) -> bool) -> Vec<PoseO
     POSES[..9]
         .iter()
         .enumerate()
-        .map(|(i, (a, centre))| {
-            let pose = BoardPose::tilted(&board, *centre, a[0], a[1], a[2]);
+        .map(|(i, placement)| {
+            let pose = placement.pose(&board);
             let true_px: Vec<Point2<f64>> = target::true_corner_pixels(&system, &board, &pose)
                 .into_iter()
                 .map(|p| p.unwrap())

@@ -47,7 +47,7 @@ use crate::support;
 use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::{calibrate, corners, CalibrationSettings, ColumnMap, PoseObservation};
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan};
-use fsm_sim::target::{self, BoardPose};
+use fsm_sim::target;
 use fsm_sim::{simulate_with, Scene, Sensor, System, TransportSettings};
 use nalgebra::Point2;
 use std::sync::OnceLock;
@@ -142,8 +142,8 @@ fn rendered(width: u32) -> &'static [Rendered] {
         let out = POSES
             .iter()
             .enumerate()
-            .map(|(i, (angles, centre))| {
-                let pose = BoardPose::tilted(&sim_board, *centre, angles[0], angles[1], angles[2]);
+            .map(|(i, placement)| {
+                let pose = placement.pose(&sim_board);
                 let true_px: Vec<Point2<f64>> =
                     target::true_corner_pixels(&system, &sim_board, &pose)
                         .into_iter()

@@ -84,40 +84,5 @@ pub fn plane_deviation(truth: &Calibration, cal: &Calibration) -> PlaneDeviation
     }
 }
 
-/// (yaw, pitch, roll) degrees, centre of the corner grid (camera frame, mm). The first nine
-/// (those of `fsm simulate --board-poses`) are tilted by 15–30° about four axes; then two
-/// boards parallel to the image, their edges along the pixel grid (one centred, one offset by
-/// (¼, ½) px); then six turned by ±90° (portrait: the corners reach the top and bottom of the
-/// image), four of them tilted by 25°.
-///
-/// What the poses are for: the principal point. The camera's tangential distortion is free, and
-/// with the bench camera's narrow field (28°) a shift of the principal point is nearly the
-/// same as a turn of the whole camera frame plus a change of `p1`, `p2`: only the perspective
-/// of the turn, largest at the image's rim, tells them apart. With corners of 0.02 px noise
-/// per axis (iid, synthetic, 8 trials), the first nine poses leave the principal point
-/// σ = (0.41, 0.27) px (the plane 0.49 mm RMS off in 3D, raw); with the 17 here (0.21,
-/// 0.19) px and 0.29 mm (measured; `p1 = p2 = 0` held fixed would give σ ≈ 0.1 px but a biased
-/// principal point, the bench having `p1 = 5e-4`, `p2 = −3e-4`). Close boards (400 mm) would
-/// help more but leave the projector's field; so would many more poses (σ falls as 1/√N).
-/// With the simulator's former fixed 4 × 4 ray grid, the two fronto-parallel boards were off
-/// by up to ±1/8 px along their grid-aligned edges (the plane 0.089% off); the rays are now
-/// multi-jittered per pixel (`fsm_sim::transport::footprint`).
-pub const POSES: [([f64; 3], [f64; 3]); 17] = [
-    ([15.0, -15.0, 0.0], [0.0, 0.0, 540.0]),
-    ([30.0, 0.0, 5.0], [0.0, 0.0, 560.0]),
-    ([-30.0, 0.0, -5.0], [0.0, 0.0, 560.0]),
-    ([0.0, 30.0, 0.0], [0.0, 0.0, 560.0]),
-    ([0.0, -30.0, 8.0], [0.0, 0.0, 560.0]),
-    ([20.0, 20.0, 10.0], [0.0, 0.0, 580.0]),
-    ([-20.0, -20.0, -10.0], [0.0, 0.0, 570.0]),
-    ([20.0, -20.0, 0.0], [0.0, 0.0, 560.0]),
-    ([-20.0, 20.0, 5.0], [0.0, 0.0, 560.0]),
-    ([0.0, 0.0, 0.0], [0.0, 0.0, 540.0]),
-    ([0.0, 0.0, 0.0], [0.1875, 0.375, 480.0]),
-    ([-2.0, 6.0, 90.0], [66.0, -7.0, 574.0]),
-    ([4.0, -11.0, 90.0], [-34.0, -5.0, 527.0]),
-    ([-25.0, 0.0, 90.0], [40.0, 0.0, 560.0]),
-    ([25.0, 0.0, 90.0], [-20.0, 0.0, 540.0]),
-    ([0.0, 25.0, -90.0], [30.0, 0.0, 560.0]),
-    ([0.0, -25.0, -90.0], [-10.0, 0.0, 540.0]),
-];
+/// The bench's calibration poses, `fsm_sim::folder::CALIBRATION_POSES` (why these: its doc).
+pub const POSES: [fsm_sim::folder::BoardPlacement; 17] = fsm_sim::folder::CALIBRATION_POSES;
