@@ -54,13 +54,13 @@ pub struct BoardPlacement {
 }
 
 impl BoardPlacement {
-    /// Turned by the three angles (degrees), the grid's centre at `(0, 0, z_mm)`.
-    pub const fn new(yaw_deg: f64, pitch_deg: f64, roll_deg: f64, z_mm: f64) -> BoardPlacement {
+    /// Turned by `[yaw, pitch, roll]` (degrees), the grid's centre at `centre_mm`.
+    pub const fn at(angles_deg: [f64; 3], centre_mm: [f64; 3]) -> BoardPlacement {
         BoardPlacement {
-            yaw_deg,
-            pitch_deg,
-            roll_deg,
-            centre_mm: [0.0, 0.0, z_mm],
+            yaw_deg: angles_deg[0],
+            pitch_deg: angles_deg[1],
+            roll_deg: angles_deg[2],
+            centre_mm,
         }
     }
 
@@ -108,108 +108,23 @@ impl std::fmt::Display for BoardPlacement {
 /// by up to ±1/8 px along their grid-aligned edges (the plane 0.089% off); the rays are now
 /// multi-jittered per pixel (`fsm_sim::transport::footprint`).
 pub const CALIBRATION_POSES: [BoardPlacement; 17] = [
-    BoardPlacement {
-        yaw_deg: 15.0,
-        pitch_deg: -15.0,
-        roll_deg: 0.0,
-        centre_mm: [0.0, 0.0, 540.0],
-    },
-    BoardPlacement {
-        yaw_deg: 30.0,
-        pitch_deg: 0.0,
-        roll_deg: 5.0,
-        centre_mm: [0.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: -30.0,
-        pitch_deg: 0.0,
-        roll_deg: -5.0,
-        centre_mm: [0.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: 0.0,
-        pitch_deg: 30.0,
-        roll_deg: 0.0,
-        centre_mm: [0.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: 0.0,
-        pitch_deg: -30.0,
-        roll_deg: 8.0,
-        centre_mm: [0.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: 20.0,
-        pitch_deg: 20.0,
-        roll_deg: 10.0,
-        centre_mm: [0.0, 0.0, 580.0],
-    },
-    BoardPlacement {
-        yaw_deg: -20.0,
-        pitch_deg: -20.0,
-        roll_deg: -10.0,
-        centre_mm: [0.0, 0.0, 570.0],
-    },
-    BoardPlacement {
-        yaw_deg: 20.0,
-        pitch_deg: -20.0,
-        roll_deg: 0.0,
-        centre_mm: [0.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: -20.0,
-        pitch_deg: 20.0,
-        roll_deg: 5.0,
-        centre_mm: [0.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: 0.0,
-        pitch_deg: 0.0,
-        roll_deg: 0.0,
-        centre_mm: [0.0, 0.0, 540.0],
-    },
-    BoardPlacement {
-        yaw_deg: 0.0,
-        pitch_deg: 0.0,
-        roll_deg: 0.0,
-        centre_mm: [0.1875, 0.375, 480.0],
-    },
-    BoardPlacement {
-        yaw_deg: -2.0,
-        pitch_deg: 6.0,
-        roll_deg: 90.0,
-        centre_mm: [66.0, -7.0, 574.0],
-    },
-    BoardPlacement {
-        yaw_deg: 4.0,
-        pitch_deg: -11.0,
-        roll_deg: 90.0,
-        centre_mm: [-34.0, -5.0, 527.0],
-    },
-    BoardPlacement {
-        yaw_deg: -25.0,
-        pitch_deg: 0.0,
-        roll_deg: 90.0,
-        centre_mm: [40.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: 25.0,
-        pitch_deg: 0.0,
-        roll_deg: 90.0,
-        centre_mm: [-20.0, 0.0, 540.0],
-    },
-    BoardPlacement {
-        yaw_deg: 0.0,
-        pitch_deg: 25.0,
-        roll_deg: -90.0,
-        centre_mm: [30.0, 0.0, 560.0],
-    },
-    BoardPlacement {
-        yaw_deg: 0.0,
-        pitch_deg: -25.0,
-        roll_deg: -90.0,
-        centre_mm: [-10.0, 0.0, 540.0],
-    },
+    BoardPlacement::at([15.0, -15.0, 0.0], [0.0, 0.0, 540.0]),
+    BoardPlacement::at([30.0, 0.0, 5.0], [0.0, 0.0, 560.0]),
+    BoardPlacement::at([-30.0, 0.0, -5.0], [0.0, 0.0, 560.0]),
+    BoardPlacement::at([0.0, 30.0, 0.0], [0.0, 0.0, 560.0]),
+    BoardPlacement::at([0.0, -30.0, 8.0], [0.0, 0.0, 560.0]),
+    BoardPlacement::at([20.0, 20.0, 10.0], [0.0, 0.0, 580.0]),
+    BoardPlacement::at([-20.0, -20.0, -10.0], [0.0, 0.0, 570.0]),
+    BoardPlacement::at([20.0, -20.0, 0.0], [0.0, 0.0, 560.0]),
+    BoardPlacement::at([-20.0, 20.0, 5.0], [0.0, 0.0, 560.0]),
+    BoardPlacement::at([0.0, 0.0, 0.0], [0.0, 0.0, 540.0]),
+    BoardPlacement::at([0.0, 0.0, 0.0], [0.1875, 0.375, 480.0]),
+    BoardPlacement::at([-2.0, 6.0, 90.0], [66.0, -7.0, 574.0]),
+    BoardPlacement::at([4.0, -11.0, 90.0], [-34.0, -5.0, 527.0]),
+    BoardPlacement::at([-25.0, 0.0, 90.0], [40.0, 0.0, 560.0]),
+    BoardPlacement::at([25.0, 0.0, 90.0], [-20.0, 0.0, 540.0]),
+    BoardPlacement::at([0.0, 25.0, -90.0], [30.0, 0.0, 560.0]),
+    BoardPlacement::at([0.0, -25.0, -90.0], [-10.0, 0.0, 540.0]),
 ];
 
 /// The poses of `fsm simulate --board-poses`, in order: the first nine of
