@@ -1,5 +1,6 @@
-//! `fsm`: the command-line tool of the Frequency Shift Method scanner. A thin layer over
-//! `fsm-io`: each subcommand parses its arguments and calls the library.
+//! `fsm`: the command-line tool of the Frequency Shift Method scanner. A thin layer over the
+//! host libraries (`fsm-io`, `fsm-scan`, `fsm-calibrate`, `fsm-sim`): each subcommand parses
+//! its arguments and calls them.
 // The arguments' doc comments are clap's `--help` text, written for a terminal: `<method>/`
 // and `[section]` there are words, not HTML or links.
 #![allow(rustdoc::invalid_html_tags, rustdoc::broken_intra_doc_links)]

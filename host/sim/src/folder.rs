@@ -171,12 +171,7 @@ impl FromStr for BoardPlacement {
                 centre[2]
             ));
         }
-        Ok(BoardPlacement {
-            yaw_deg: angles[0],
-            pitch_deg: angles[1],
-            roll_deg: angles[2],
-            centre_mm: centre,
-        })
+        Ok(BoardPlacement::at(angles, centre))
     }
 }
 

@@ -15,16 +15,10 @@ use std::sync::Arc;
 use fsm_core::{GroupCount, PhaseShiftPlan, ScanPlan};
 use fsm_scan::decoded::Method;
 use fsm_scan::metrics::Comparison;
-use fsm_scan::{SelectionParams, Surface};
-use fsm_sim::comparison;
+use fsm_scan::SelectionParams;
+use fsm_sim::comparison::{self, Scanned};
 use fsm_sim::{LightTransport, PathKind, PixelTruth, Sensor, System};
-use support::{scan_capture, transport};
-
-/// A scan of one scene with one method: the surface and the truth of its pixels.
-struct Scanned {
-    surface: Surface,
-    truth: Vec<PixelTruth>,
-}
+use support::transport;
 
 /// Renders `method`'s capture of `transport`'s rows, decodes it with the calibration's column
 /// limits, triangulates and selects — the library path `fsm scan` and `fsm demo` take.
@@ -38,8 +32,7 @@ fn scan(
     let capture =
         comparison::capture_of(method, transport, system, *sensor, seed).expect("capture");
     let params = SelectionParams::for_calibration(&system.calibration);
-    let (surface, truth) = scan_capture(&capture, method, system, &params);
-    Scanned { surface, truth }
+    comparison::scan_capture(&capture, method, system, &params).expect("the capture scans")
 }
 
 /// The figures of one method: the Fig. 9 comparison of its scans with and without the

@@ -21,8 +21,9 @@ use fsm_core::{GroupCount, ScanPlan};
 use fsm_scan::decoded;
 use fsm_scan::metrics::{point_errors, PointErrors};
 use fsm_scan::{NoPointCounts, SelectionParams};
-use fsm_sim::{Capture, LightTransport, PixelTruth, Sensor, System};
-use support::{scan_capture, transport};
+use fsm_sim::comparison::{self, Scanned};
+use fsm_sim::{Capture, LightTransport, Sensor, System};
+use support::transport;
 
 /// Distance from the truth beyond which a point is wrong, mm.
 const WRONG_MM: f64 = 1.0;
@@ -47,9 +48,10 @@ fn scan(
         drop_fictitious,
         ..SelectionParams::for_calibration(&system.calibration)
     };
-    let (surface, truth) = scan_capture(&capture, decoded::Method::Fsm(&plan), system, &params);
-    let truth_mm: Vec<[f64; 3]> = truth.iter().map(|t| t.point_mm).collect();
-    let lit: Vec<bool> = truth.iter().map(PixelTruth::is_lit_directly).collect();
+    let Scanned { surface, truth, .. } =
+        comparison::scan_capture(&capture, decoded::Method::Fsm(&plan), system, &params)
+            .expect("the capture scans");
+    let (truth_mm, lit) = comparison::truth_points(&truth);
     Figures {
         errors: point_errors(&surface.point_mm, &truth_mm, &lit, WRONG_MM),
         no_point: surface.no_point_counts(),

@@ -6,8 +6,6 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
-use fsm_scan::decoded;
-use fsm_scan::{SelectionParams, Surface};
 use fsm_sim::{Capture, LightTransport, PixelTruth, Scene, Sensor, System, TransportSettings};
 
 /// Candidates kept per pixel in the tests.
@@ -98,18 +96,4 @@ pub fn nearest_error(c: &PixelCandidates<K>, truth: f64) -> f64 {
 /// RMS of a list of errors.
 pub fn rms(errors: &[f64]) -> f64 {
     (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt()
-}
-
-/// Decodes every row of `capture` with `method` and the calibration's column limits,
-/// triangulates and selects with `params` ([`fsm_sim::comparison::scan_capture`], the path
-/// `fsm demo` takes). Returns the surface and the truth of its pixels, row-major.
-pub fn scan_capture(
-    capture: &Capture,
-    method: decoded::Method<'_>,
-    system: &System,
-    params: &SelectionParams,
-) -> (Surface, Vec<PixelTruth>) {
-    let scanned = fsm_sim::comparison::scan_capture(capture, method, system, params)
-        .expect("the capture scans");
-    (scanned.surface, scanned.truth)
 }
