@@ -23,9 +23,13 @@ else
     export RUSTC_BOOTSTRAP=1
     fuzz=(cargo fuzz)
 fi
+# Every command names the fuzz crate's folder: cargo-fuzz otherwise takes `fuzz/` beside the
+# nearest parent manifest, which for host/fuzz (host/ holds crates, no manifest of its own) is
+# the workspace root's, where no fuzz crate is.
+dir=(--fuzz-dir "$PWD")
 # Built first, so that a target that does not compile fails here rather than in a filtered log.
-"${fuzz[@]}" build
-targets=$("${fuzz[@]}" list)
+"${fuzz[@]}" build "${dir[@]}"
+targets=$("${fuzz[@]}" list "${dir[@]}")
 if [ -z "$targets" ]; then
     echo "fuzz: $where lists no fuzz target" >&2
     exit 1
@@ -42,7 +46,7 @@ fuzz_one() {
     mkdir -p "corpus/$target"
     local inputs=("corpus/$target")
     [ -d "seeds/$target" ] && inputs+=("seeds/$target")
-    "${fuzz[@]}" run "$target" "${inputs[@]}" -- \
+    "${fuzz[@]}" run "${dir[@]}" "$target" "${inputs[@]}" -- \
         -seed="${FUZZ_SEED:-1}" -max_total_time="$seconds" >"$logs/$target.log" 2>&1 || status=$?
     echo "$status" >"$logs/$target.status"
 }
