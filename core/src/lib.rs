@@ -18,7 +18,7 @@
 //! | candidates of a pixel | [`candidate`] | eq. 18 |
 //! | one temporal row → candidates of every pixel | [`decoder`] | §III-F, §IV-B |
 //! | plans, row dumps, candidate rows as bytes | [`wire`] | SPEC §6 |
-//! | the phase-shift + Gray-code baseline, same candidates | [`phase_shift`] | eqs. 1–3, §VII |
+//! | the methods FSM is compared with (phase shift, Micro Phase Shifting, line scanning), same candidates | [`baseline`] | eqs. 1–3, §VII, §VIII-F |
 //!
 //! ```
 //! use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
@@ -45,22 +45,25 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod baseline;
 pub mod block;
 pub mod candidate;
 pub mod decoder;
 pub mod math;
 pub mod noise;
 pub mod peak;
-pub mod phase_shift;
 pub mod plan;
 pub mod search;
 pub mod transform;
 pub mod wire;
 
+pub use baseline::line_scan::LineScanPlan;
+pub use baseline::micro_phase_shift::MicroPhaseShiftPlan;
+pub use baseline::phase_shift::PhaseShiftPlan;
+pub use baseline::{PatternSequence, PixelDecoder};
 pub use candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
 pub use decoder::{Decoder, DecoderError, Row, RowError};
 pub use peak::{Peak, PeakList};
-pub use phase_shift::{PatternSequence, PhaseShiftPlan};
 pub use plan::sequence::{Group, Pattern};
 pub use plan::{
     BlockCoding, DecodeSettings, FringeBand, GroupCount, Method, PatternLevels, PeakEstimator,

@@ -16,7 +16,7 @@ const LAYERS: [&str; 11] = [
     "search",
     "block",
     "decoder",
-    "phase_shift",
+    "baseline",
 ];
 
 /// Top-level modules `lib.rs` declares.

@@ -6,6 +6,7 @@
 mod support;
 
 mod accuracy;
+mod baseline;
 mod cosine;
 mod cosine_transform;
 mod estimators;
@@ -13,7 +14,6 @@ mod kernel;
 mod layers;
 mod local_maxima;
 mod noise;
-mod phase_shift;
 mod plan;
 mod properties;
 mod robustness;

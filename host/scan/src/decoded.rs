@@ -4,7 +4,10 @@
 //! phase-shift baseline alike. Triangulation and selection take it from here.
 
 use fsm_core::wire::candidates::decode_record;
-use fsm_core::{ColumnRange, Decoder, PhaseShiftPlan, Row, ScanPlan};
+use fsm_core::{
+    ColumnRange, Decoder, LineScanPlan, MicroPhaseShiftPlan, PatternSequence, PhaseShiftPlan,
+    PixelDecoder, Row, ScanPlan,
+};
 use fsm_io::candidate_file::HostCandidates;
 use fsm_io::capture::Capture;
 use fsm_io::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary};
@@ -19,6 +22,30 @@ pub enum Method<'p> {
     Fsm(&'p ScanPlan),
     /// The phase-shift + Gray-code baseline.
     PhaseShift(&'p PhaseShiftPlan),
+    /// Micro Phase Shifting.
+    MicroPhaseShift(&'p MicroPhaseShiftPlan),
+    /// Line scanning.
+    LineScan(&'p LineScanPlan),
+}
+
+impl<'p> Method<'p> {
+    /// The patterns the method shows.
+    pub fn patterns(&self) -> &'p dyn PatternSequence {
+        match *self {
+            Method::Fsm(p) => p,
+            Method::PhaseShift(p) => p,
+            Method::MicroPhaseShift(p) => p,
+            Method::LineScan(p) => p,
+        }
+    }
+
+    /// The FSM plan, for the methods that have one.
+    pub fn fsm_plan(&self) -> Option<&'p ScanPlan> {
+        match *self {
+            Method::Fsm(p) => Some(p),
+            _ => None,
+        }
+    }
 }
 
 /// Candidates of every pixel of `height` rows from `first_row` on, row-major.
@@ -68,19 +95,16 @@ impl DecodedImage {
         samples: impl Fn(usize) -> Result<Vec<u16>> + Sync,
     ) -> Result<DecodedImage> {
         let mut tables = Vec::new();
-        let decoder = match method {
-            Method::Fsm(plan) => {
+        let decoder = match method.fsm_plan() {
+            Some(plan) => {
                 tables.resize(Decoder::tables_len(plan), 0.0);
                 let decoder = Decoder::new(plan, &mut tables)
                     .map_err(|e| Error::Usage(format!("cannot decode with this plan: {e}")))?;
                 Some(decoder)
             }
-            Method::PhaseShift(_) => None,
+            None => None,
         };
-        let scratch_len = match method {
-            Method::Fsm(plan) => Decoder::scratch_len(plan),
-            Method::PhaseShift(_) => 0,
-        };
+        let scratch_len = method.fsm_plan().map_or(0, Decoder::scratch_len);
         let decoded: Vec<Vec<HostCandidates>> = rows
             .clone()
             .into_par_iter()
@@ -98,6 +122,8 @@ impl DecodedImage {
                     let mut out = vec![HostCandidates::new(); width];
                     let result = match (method, &decoder) {
                         (Method::PhaseShift(plan), _) => plan.decode_row(&row, &mut out),
+                        (Method::MicroPhaseShift(plan), _) => plan.decode_row(&row, &mut out),
+                        (Method::LineScan(plan), _) => plan.decode_row(&row, &mut out),
                         (Method::Fsm(_), Some(d)) => d.decode_row(&row, scratch, &mut out),
                         (Method::Fsm(_), None) => unreachable!("an FSM decoder was built above"),
                     };
@@ -111,10 +137,9 @@ impl DecodedImage {
             first_row: rows.start,
             height: rows.len(),
             pixels: decoded.into_iter().flatten().collect(),
-            column_noise_dn: match method {
-                Method::Fsm(plan) => Decoder::dark_column_noise_dn(plan, bit_depth),
-                Method::PhaseShift(_) => None,
-            },
+            column_noise_dn: method
+                .fsm_plan()
+                .and_then(|plan| Decoder::dark_column_noise_dn(plan, bit_depth)),
         })
     }
 

@@ -50,7 +50,7 @@ impl Capture {
     /// `sensor`; noise seeded by `seed`.
     pub fn new(
         transport: Arc<LightTransport>,
-        patterns: &impl PatternSequence,
+        patterns: &(impl PatternSequence + ?Sized),
         system: &System,
         sensor: Sensor,
         seed: u64,
@@ -319,6 +319,10 @@ impl<P: PatternSequence, F: Fn(f32) -> f32> PatternSequence for DrivenCodes<'_, 
 
     fn frame_count(&self) -> usize {
         self.patterns.frame_count()
+    }
+
+    fn pattern_count(&self) -> usize {
+        self.patterns.pattern_count()
     }
 
     fn frame_intensity(&self, frame: usize, column: u32) -> f32 {

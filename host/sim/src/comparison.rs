@@ -10,7 +10,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use fsm_core::{GroupCount, PhaseShiftPlan, ScanPlan};
+use fsm_core::{GroupCount, LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
 use fsm_io::column_map::viridis_rgb;
 use fsm_io::image_files::{write_png_gray8, write_png_rgb8};
 use fsm_io::outputs::write_file;
@@ -155,9 +155,10 @@ pub struct Report {
 
 /// The compared methods' plans: the paper's BFSM and EFSM (cB 64, two groups) decoded by the
 /// cosine search; the same captures decoded by CLEAN on the zero-padded DFT (as before the
-/// cosine search); phase shift + Gray code; the EFSM patterns decoded by the paper's local
-/// maxima (as a camera can at frame rate). The FSM plans state the simulated camera's sensor,
-/// as a user states theirs.
+/// cosine search); phase shift + Gray code; Micro Phase Shifting ("16–15", 17 patterns); line
+/// scanning with as many patterns as BFSM (paper Fig. 13); the EFSM patterns decoded by the
+/// paper's local maxima (as a camera can at frame rate). The FSM and line-scan plans state the
+/// simulated camera's sensor, as a user states theirs.
 pub struct Plans {
     bfsm: ScanPlan,
     efsm: ScanPlan,
@@ -165,6 +166,8 @@ pub struct Plans {
     efsm_clean: ScanPlan,
     efsm_fast: ScanPlan,
     phase_shift: PhaseShiftPlan,
+    micro_phase_shift: MicroPhaseShiftPlan,
+    line_scan: LineScanPlan,
 }
 
 impl Plans {
@@ -182,17 +185,24 @@ impl Plans {
             efsm_clean: stated(ScanPlan::paper_efsm(GroupCount::Two).with_clean()),
             efsm_fast: stated(ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima()),
             phase_shift: PhaseShiftPlan::paper(),
+            micro_phase_shift: MicroPhaseShiftPlan::paper(),
+            line_scan: LineScanPlan {
+                sensor,
+                ..LineScanPlan::paper()
+            },
         }
     }
 
     /// Every method with its name in the tables, in the report's order.
-    pub fn methods(&self) -> [(&'static str, Method<'_>); 6] {
+    pub fn methods(&self) -> [(&'static str, Method<'_>); 8] {
         [
             ("BFSM", Method::Fsm(&self.bfsm)),
             ("EFSM", Method::Fsm(&self.efsm)),
             ("BFSM-CLEAN", Method::Fsm(&self.bfsm_clean)),
             ("EFSM-CLEAN", Method::Fsm(&self.efsm_clean)),
             ("PS", Method::PhaseShift(&self.phase_shift)),
+            ("MPS", Method::MicroPhaseShift(&self.micro_phase_shift)),
+            ("LS", Method::LineScan(&self.line_scan)),
             ("EFSM-fast", Method::Fsm(&self.efsm_fast)),
         ]
     }
@@ -206,11 +216,7 @@ pub fn capture_of(
     sensor: Sensor,
     seed: u64,
 ) -> Result<Capture> {
-    match method {
-        Method::Fsm(p) => Capture::new(transport.clone(), p, system, sensor, seed),
-        Method::PhaseShift(p) => Capture::new(transport.clone(), p, system, sensor, seed),
-    }
-    .map_err(Error::from)
+    Capture::new(transport.clone(), method.patterns(), system, sensor, seed).map_err(Error::from)
 }
 
 /// The paper's Fig. 9 figures of a scan `with` the mirror against one `without`, over the
@@ -232,21 +238,6 @@ pub fn figures(with: &Surface, without: &Surface, truth: &[PixelTruth]) -> Compa
         surface: &surface,
     };
     compare(with, without, &truth)
-}
-
-/// Patterns `method` shows, reference frames not counted.
-fn pattern_count(method: Method<'_>) -> usize {
-    match method {
-        Method::Fsm(p) => p.pattern_count(),
-        Method::PhaseShift(p) => p.sequence_len() - 2,
-    }
-}
-
-fn fingerprint(method: Method<'_>) -> u64 {
-    match method {
-        Method::Fsm(p) => p.fingerprint(),
-        Method::PhaseShift(p) => p.fingerprint(),
-    }
 }
 
 /// Runs the comparison on the bench `system` and writes each scan's outputs under `out` (a
@@ -279,7 +270,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
             std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
             let summary = ScanSummary::new(
                 name,
-                fingerprint(method),
+                method.patterns().fingerprint(),
                 &scanned.decoded,
                 &scanned.surface,
                 &params,
@@ -314,7 +305,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
         ));
         reports.push(MethodReport {
             method: name,
-            patterns: pattern_count(method),
+            patterns: method.patterns().pattern_count(),
             figures,
             points,
             e_d_percent_of_standoff: 100.0 * figures.e_d_mm / STANDOFF_MM,
@@ -436,7 +427,8 @@ pub fn markdown(report: &Report) -> String {
          scene with the mirror blackened. Every method goes through the same path: decode, triangulate every \
          candidate, select the direct one semi-globally. BFSM and EFSM decode with the cosine search (the exact \
          inverse of their full band); `-CLEAN` rows decode the same captures with CLEAN on the zero-padded DFT, \
-         `EFSM-fast` with the paper's local maxima. Where a pixel's direct and mirrored columns fall within one \
+         `EFSM-fast` with the paper's local maxima. PS is phase shift with Gray codes, MPS Micro Phase Shifting \
+         (Gupta & Nayar), LS line scanning (one column per pattern, a Gaussian peak detector). Where a pixel's direct and mirrored columns fall within one \
          footprint of each other modulo the block width (2Δc for the DFT searches), EFSM cannot separate them \
          (paper §IV-C): the decoder flags the pixel aliased and it gets no point, which the completeness column \
          shows.\n\n",
@@ -460,6 +452,23 @@ pub fn markdown(report: &Report) -> String {
             100.0 * f.completeness,
             100.0 * m.points.wrong_share(),
             100.0 * m.points.completeness()
+        ));
+    }
+    if let (Some(b), Some(l)) = (
+        report.methods.iter().find(|m| m.method == "BFSM"),
+        report.methods.iter().find(|m| m.method == "LS"),
+    ) {
+        md.push_str(&format!(
+            "\nBFSM against line scanning with the same number of patterns ({} and {}; paper Fig. 13, where BFSM \
+             is about 10 times as accurate): plane-fit RMS without the mirror {:.4} mm against {:.4} mm ({:.1} \
+             times), with it {:.4} mm against {:.4} mm.\n",
+            b.patterns,
+            l.patterns,
+            b.figures.e_no_i_mm,
+            l.figures.e_no_i_mm,
+            l.figures.e_no_i_mm / b.figures.e_no_i_mm,
+            b.figures.e_wi_i_mm,
+            l.figures.e_wi_i_mm,
         ));
     }
     md.push_str(

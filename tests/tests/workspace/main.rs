@@ -8,5 +8,6 @@ mod decoders;
 mod end_to_end;
 mod gamma;
 mod layers;
+mod methods;
 mod scan;
 mod wrong_points;

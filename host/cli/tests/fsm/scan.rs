@@ -204,6 +204,15 @@ fn the_demo_reports_the_papers_comparison() {
     );
     assert!(share("BFSM") >= 0.99, "BFSM {}", share("BFSM"));
     assert!(share("PS") < 0.5, "PS {}", share("PS"));
+    // Micro Phase Shifting's fringes mix like PS's; line scanning sees both lights apart.
+    assert!(share("MPS") < 0.5, "MPS {}", share("MPS"));
+    assert!(share("LS") >= 0.95, "LS {}", share("LS"));
+    let patterns = |name: &str| method(name)["patterns"].as_u64().unwrap();
+    assert_eq!(
+        (patterns("MPS"), patterns("LS")),
+        (17, patterns("BFSM")),
+        "MPS's 16-15 group, LS with as many patterns as BFSM (Fig. 13)"
+    );
     // Points more than 1 mm from the true surface, over all of plane_mirror's points: BFSM's
     // are few (virtual images the projector test cannot see), phase shift's are many.
     let wrong = |name: &str| {

@@ -15,6 +15,7 @@
 
 use core::fmt;
 
+use super::{PatternSequence, PixelDecoder};
 use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
 use crate::plan::sequence::Group;
 
@@ -165,10 +166,53 @@ impl PhaseShiftPlan {
         }
     }
 
-    /// Decodes one pixel from its samples in sequence order: one candidate (column, fringe
-    /// modulation) or none when the modulation is below `min_modulation_dn` or the Gray code
-    /// points outside `range`.
-    pub fn decode_pixel<const K: usize>(
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `PS`: the identity row dumps
+    /// of its captures carry (distinct from every FSM plan's, whose bytes never start so).
+    pub fn fingerprint(&self) -> u64 {
+        let mut bytes = [0u8; 12];
+        bytes[..2].copy_from_slice(b"PS");
+        bytes[2..4].copy_from_slice(&self.projector_columns.to_le_bytes());
+        bytes[4..6].copy_from_slice(&self.period_columns.to_le_bytes());
+        bytes[6] = self.steps;
+        bytes[7] = self.bits;
+        bytes[8..12].copy_from_slice(&self.min_modulation_dn.to_le_bytes());
+        crate::wire::crc64(&bytes)
+    }
+
+    /// `(sin θ_k, cos θ_k)` of offset `k`, `θ_k = 2πk/steps`.
+    fn offset(&self, k: usize) -> (f32, f32) {
+        let a = core::f64::consts::TAU * k as f64 / self.steps as f64;
+        (libm::sin(a) as f32, libm::cos(a) as f32)
+    }
+}
+
+impl PatternSequence for PhaseShiftPlan {
+    fn projector_columns(&self) -> u16 {
+        self.projector_columns
+    }
+
+    fn frame_count(&self) -> usize {
+        self.sequence_len()
+    }
+
+    fn pattern_count(&self) -> usize {
+        self.sequence_len() - 2
+    }
+
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
+        self.pattern(frame)
+            .map_or(0.0, |p| self.intensity(p, column))
+    }
+
+    fn fingerprint(&self) -> u64 {
+        PhaseShiftPlan::fingerprint(self)
+    }
+}
+
+impl PixelDecoder for PhaseShiftPlan {
+    /// One candidate (column, fringe modulation), or none when the modulation is below
+    /// `min_modulation_dn` or the Gray code points outside `range`.
+    fn decode_pixel<const K: usize>(
         &self,
         samples: impl Fn(usize) -> u16,
         saturation: u16,
@@ -231,123 +275,5 @@ impl PhaseShiftPlan {
             };
             out.offer(candidate, 0.0, |old, _| *old);
         }
-    }
-
-    /// CRC-64/XZ of the plan's fields, little-endian after the tag `PS`: the identity row dumps
-    /// of its captures carry (distinct from every FSM plan's, whose bytes never start so).
-    pub fn fingerprint(&self) -> u64 {
-        let mut bytes = [0u8; 12];
-        bytes[..2].copy_from_slice(b"PS");
-        bytes[2..4].copy_from_slice(&self.projector_columns.to_le_bytes());
-        bytes[4..6].copy_from_slice(&self.period_columns.to_le_bytes());
-        bytes[6] = self.steps;
-        bytes[7] = self.bits;
-        bytes[8..12].copy_from_slice(&self.min_modulation_dn.to_le_bytes());
-        crate::wire::crc64(&bytes)
-    }
-
-    /// Decodes every pixel of a row in the decoder's layout (`frames[i·W + x]`, this plan's
-    /// frame order): the phase-shift counterpart of [`crate::Decoder::decode_row`].
-    pub fn decode_row<const K: usize>(
-        &self,
-        row: &crate::decoder::Row<'_>,
-        out: &mut [PixelCandidates<K>],
-    ) -> Result<(), crate::decoder::RowError> {
-        use crate::decoder::RowError;
-        if row.width == 0 {
-            return Err(RowError::EmptyRow);
-        }
-        if !(1..=16).contains(&row.bit_depth) {
-            return Err(RowError::BitDepth {
-                bit_depth: row.bit_depth,
-            });
-        }
-        let expected = self.sequence_len().saturating_mul(row.width);
-        if row.frames.len() != expected {
-            return Err(RowError::FramesLength {
-                expected,
-                actual: row.frames.len(),
-            });
-        }
-        if out.len() != row.width {
-            return Err(RowError::OutputLength {
-                expected: row.width,
-                actual: out.len(),
-            });
-        }
-        if let Some(limits) = row.column_limits {
-            if limits.len() != row.width {
-                return Err(RowError::ColumnLimitsLength {
-                    expected: row.width,
-                    actual: limits.len(),
-                });
-            }
-        }
-        let saturation = ((1u32 << row.bit_depth) - 1) as u16;
-        let projector = ColumnRange::projector(self.projector_columns);
-        for (x, pixel) in out.iter_mut().enumerate() {
-            let range = row
-                .column_limits
-                .map_or(projector, |l| projector.intersect(&l[x]));
-            self.decode_pixel(|i| row.frames[i * row.width + x], saturation, &range, pixel);
-        }
-        Ok(())
-    }
-
-    /// `(sin θ_k, cos θ_k)` of offset `k`, `θ_k = 2πk/steps`.
-    fn offset(&self, k: usize) -> (f32, f32) {
-        let a = core::f64::consts::TAU * k as f64 / self.steps as f64;
-        (libm::sin(a) as f32, libm::cos(a) as f32)
-    }
-}
-
-/// A sequence of projected frames, each a value per projector column: what a simulator renders
-/// and a pattern writer draws, for FSM plans and the phase-shift baseline alike.
-pub trait PatternSequence {
-    /// Projector columns.
-    fn projector_columns(&self) -> u16;
-    /// Frames in the sequence.
-    fn frame_count(&self) -> usize;
-    /// Relative intensity in `[0, 1]` of frame `frame` at `column`.
-    fn frame_intensity(&self, frame: usize, column: u32) -> f32;
-    /// Identity of the sequence, carried by row dumps of its captures.
-    fn fingerprint(&self) -> u64;
-}
-
-impl PatternSequence for crate::plan::ScanPlan {
-    fn projector_columns(&self) -> u16 {
-        self.projector_columns
-    }
-
-    fn frame_count(&self) -> usize {
-        self.sequence_len()
-    }
-
-    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
-        self.pattern(frame)
-            .map_or(0.0, |p| self.intensity(p, column))
-    }
-
-    fn fingerprint(&self) -> u64 {
-        crate::plan::ScanPlan::fingerprint(self)
-    }
-}
-
-impl PatternSequence for PhaseShiftPlan {
-    fn projector_columns(&self) -> u16 {
-        self.projector_columns
-    }
-
-    fn frame_count(&self) -> usize {
-        self.sequence_len()
-    }
-
-    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
-        self.pattern(frame)
-            .map_or(0.0, |p| self.intensity(p, column))
-    }
-
-    fn fingerprint(&self) -> u64 {
-        PhaseShiftPlan::fingerprint(self)
     }
 }

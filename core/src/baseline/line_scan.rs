@@ -1,0 +1,278 @@
+//! Line scanning ("LS", paper §VIII-F and Fig. 13): the projector lights one column per frame,
+//! so a pixel's samples over the frames *are* its column profile, and each light is a temporal
+//! peak located to a sub-column by a peak detector (Fisher & Naidu, the paper's refs. \[31\],
+//! \[32\]). BFSM shows as many patterns; its profile (SPEC §2b) spreads each column's light over
+//! every frame, so its noise per column is `√(2/span)` of a sample's, where LS's is a whole
+//! sample's.
+//!
+//! Frames: dark, white, then frame `2 + j` lights column `j` alone.
+//!
+//! Choices the paper leaves open: every temporal peak that stands out of its surroundings is a
+//! candidate (strongest first, as FSM's), not only the brightest, so the selection chooses the
+//! direct one as it does for FSM; a peak stands out when it exceeds the lowest sample within
+//! [`PEAK_SURROUNDINGS`] columns on both sides by `noise_factor` times the noise of a sample
+//! (the sensor's, SPEC §2b), which keeps noise on a broad glossy lobe from becoming lights.
+
+use core::fmt;
+
+use super::{PatternSequence, PixelDecoder};
+use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+use crate::math::{ln, sqrt};
+use crate::noise::sample_noise_dn;
+use crate::plan::sequence::Group;
+use crate::plan::SensorNoise;
+
+/// Columns on each side of a temporal peak that it must stand out of, and that a stronger
+/// sample suppresses it within: about two footprints of a focused pixel.
+pub const PEAK_SURROUNDINGS: usize = 3;
+
+/// A line-scanning plan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct LineScanPlan {
+    /// Projector columns `cmax`: one frame each.
+    pub projector_columns: u16,
+    /// Sub-column peak detector.
+    pub detector: LineDetector,
+    /// A peak must stand out of its surroundings by this many times a sample's noise RMS.
+    pub noise_factor: f32,
+    /// The camera's sensor: the noise a peak is judged against.
+    pub sensor: SensorNoise,
+}
+
+/// Sub-column location of a temporal peak from the samples around it (Fisher & Naidu).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum LineDetector {
+    /// A Gaussian through the peak and its two neighbours (exact for a Gaussian spot); the
+    /// centre of mass of the three where a neighbour is within 3 noise RMS of the
+    /// surroundings (a light narrower than a column).
+    Gaussian,
+    /// Centre of mass of `points` samples around the peak (3, 5 or 7).
+    CentreOfMass {
+        /// Samples used, odd.
+        points: u8,
+    },
+}
+
+/// A violated line-scanning plan rule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(missing_docs)] // each field is the value the variant reports
+pub enum LineScanError {
+    /// A peak needs a column on each side.
+    Columns { projector_columns: u16 },
+    /// The centre of mass takes 3, 5 or 7 samples.
+    DetectorPoints { points: u8 },
+    /// The noise factor must be positive and finite.
+    NoiseFactor { noise_factor: f32 },
+}
+
+impl fmt::Display for LineScanError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            LineScanError::Columns { projector_columns } => write!(
+                f,
+                "projector_columns = {projector_columns}: line scanning needs at least 3 columns"
+            ),
+            LineScanError::DetectorPoints { points } => write!(
+                f,
+                "detector points = {points}: the centre of mass takes 3, 5 or 7 samples"
+            ),
+            LineScanError::NoiseFactor { noise_factor } => write!(
+                f,
+                "noise_factor = {noise_factor}: must be a positive number"
+            ),
+        }
+    }
+}
+
+impl LineScanPlan {
+    /// The paper's comparison (Fig. 13): one frame per column of its 768-column projector, as
+    /// many patterns as BFSM; the 3-point Gaussian detector.
+    pub fn paper() -> Self {
+        LineScanPlan {
+            projector_columns: 768,
+            detector: LineDetector::Gaussian,
+            noise_factor: 6.0,
+            sensor: SensorNoise::default(),
+        }
+    }
+
+    /// Checks the plan's rules.
+    pub fn validate(&self) -> Result<(), LineScanError> {
+        if self.projector_columns < 3 {
+            return Err(LineScanError::Columns {
+                projector_columns: self.projector_columns,
+            });
+        }
+        if let LineDetector::CentreOfMass { points } = self.detector {
+            if !matches!(points, 3 | 5 | 7) {
+                return Err(LineScanError::DetectorPoints { points });
+            }
+        }
+        if !(self.noise_factor.is_finite() && self.noise_factor > 0.0) {
+            return Err(LineScanError::NoiseFactor {
+                noise_factor: self.noise_factor,
+            });
+        }
+        Ok(())
+    }
+
+    /// Frames in the sequence: dark, white, one per column.
+    pub fn sequence_len(&self) -> usize {
+        2 + self.projector_columns as usize
+    }
+
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `LS`: the identity row dumps
+    /// of its captures carry (distinct from every FSM plan's, whose bytes never start so).
+    pub fn fingerprint(&self) -> u64 {
+        let mut bytes = [0u8; 17];
+        bytes[..2].copy_from_slice(b"LS");
+        bytes[2..4].copy_from_slice(&self.projector_columns.to_le_bytes());
+        bytes[4] = match self.detector {
+            LineDetector::Gaussian => 0,
+            LineDetector::CentreOfMass { points } => points,
+        };
+        bytes[5..9].copy_from_slice(&self.noise_factor.to_le_bytes());
+        bytes[9..13].copy_from_slice(&self.sensor.full_scale_electrons.to_le_bytes());
+        bytes[13..17].copy_from_slice(&self.sensor.read_noise_electrons.to_le_bytes());
+        crate::wire::crc64(&bytes)
+    }
+
+    /// The sub-column offset of the peak at `j` (`v(j)` above the surroundings' level); the
+    /// Gaussian needs both neighbours above `floor` (a few noise RMS): the log of a neighbour
+    /// lost in the noise would decide the offset, where the centre of mass weighs it little.
+    fn offset(&self, v: impl Fn(usize) -> f32, j: usize, floor: f32) -> f32 {
+        let last = self.projector_columns as usize - 1;
+        let centre_of_mass = |half: usize| {
+            let (mut sum, mut moment) = (0.0f32, 0.0f32);
+            for k in j.saturating_sub(half)..=(j + half).min(last) {
+                let w = v(k).max(0.0);
+                sum += w;
+                moment += w * (k as f32 - j as f32);
+            }
+            if sum > 0.0 {
+                moment / sum
+            } else {
+                0.0
+            }
+        };
+        match self.detector {
+            LineDetector::Gaussian if j > 0 && j < last => {
+                let (l, c, r) = (v(j - 1), v(j), v(j + 1));
+                if l > floor && r > floor {
+                    let (ll, lc, lr) = (ln(l), ln(c), ln(r));
+                    let d = 2.0 * (ll - 2.0 * lc + lr);
+                    if d < 0.0 {
+                        return ((ll - lr) / d).clamp(-0.5, 0.5);
+                    }
+                }
+                centre_of_mass(1)
+            }
+            LineDetector::Gaussian => centre_of_mass(1),
+            LineDetector::CentreOfMass { points } => centre_of_mass(points as usize / 2),
+        }
+    }
+}
+
+impl PatternSequence for LineScanPlan {
+    fn projector_columns(&self) -> u16 {
+        self.projector_columns
+    }
+
+    fn frame_count(&self) -> usize {
+        self.sequence_len()
+    }
+
+    fn pattern_count(&self) -> usize {
+        self.projector_columns as usize
+    }
+
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
+        match frame {
+            0 => 0.0,
+            1 => (column < self.projector_columns as u32) as u32 as f32,
+            f => (f - 2 == column as usize) as u32 as f32,
+        }
+    }
+
+    fn fingerprint(&self) -> u64 {
+        LineScanPlan::fingerprint(self)
+    }
+}
+
+impl PixelDecoder for LineScanPlan {
+    /// Every temporal peak that stands out of its surroundings by `noise_factor` times a
+    /// sample's noise (at the peak's level), its column from the detector, its amplitude the
+    /// height above the surroundings (DN); strongest first, at most `K`.
+    fn decode_pixel<const K: usize>(
+        &self,
+        samples: impl Fn(usize) -> u16,
+        saturation: u16,
+        range: &ColumnRange,
+        out: &mut PixelCandidates<K>,
+    ) {
+        out.clear();
+        let columns = self.projector_columns as usize;
+        let dark = samples(0) as f32;
+        let value = |j: usize| samples(2 + j) as f32 - dark;
+        let saturated =
+            samples(0) >= saturation || (0..columns).any(|j| samples(2 + j) >= saturation);
+        if saturated {
+            out.flags.insert(PixelFlags::SATURATED);
+        }
+        // The bit depth the noise model needs, from the saturation code `2^bits − 1`.
+        let bit_depth = (u16::BITS - saturation.leading_zeros()) as u8;
+        let dark_noise = sample_noise_dn(&self.sensor, bit_depth, 0.0);
+        let r = PEAK_SURROUNDINGS;
+        for j in 0..columns {
+            let peak = value(j);
+            let (lo, hi) = (j.saturating_sub(r), (j + r).min(columns - 1));
+            // A peak is the first of the largest samples within its surroundings.
+            if (lo..j).any(|k| value(k) >= peak) || (j + 1..=hi).any(|k| value(k) > peak) {
+                continue;
+            }
+            let low = |ks: core::ops::Range<usize>| ks.map(value).fold(f32::INFINITY, f32::min);
+            // At the projector's edges the missing side is the dark level.
+            let left = if j >= r { low(lo..j) } else { 0.0 };
+            let right = if j + r < columns {
+                low(j + 1..hi + 1)
+            } else {
+                0.0
+            };
+            let base = left.max(right).max(0.0);
+            let height = peak - base;
+            let noise = sqrt(
+                dark_noise * dark_noise + {
+                    let s = sample_noise_dn(&self.sensor, bit_depth, peak);
+                    s * s
+                },
+            );
+            if height <= self.noise_factor * noise {
+                continue;
+            }
+            let column = j as f32 + self.offset(|k| value(k) - base, j, 3.0 * noise);
+            if range.contains(column) {
+                out.offer(
+                    Candidate {
+                        column,
+                        amplitude: height,
+                        groups: GroupSet::only(Group::One),
+                        group: Group::One,
+                        peak: 0,
+                        block: 0,
+                    },
+                    0.0,
+                    |old, _| *old,
+                );
+            }
+        }
+        out.sort();
+        for (rank, c) in out.candidates.iter_mut().enumerate() {
+            c.peak = rank.min(u8::MAX as usize) as u8;
+        }
+    }
+}

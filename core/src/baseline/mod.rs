@@ -1,0 +1,122 @@
+//! The methods the paper compares FSM with (§VII, Figs. 9–13), each with its own plan type,
+//! patterns and per-pixel decoder, all decoded into the same [`PixelCandidates`] as FSM so that
+//! every method goes through one triangulation and selection path:
+//!
+//! | method | module | frames (paper's setting) |
+//! |---|---|---|
+//! | phase shift + Gray code (PS) | [`phase_shift`] | dark, white, 6 fringes, 7 Gray codes |
+//! | Micro Phase Shifting (MPS, Gupta & Nayar 2012) | [`micro_phase_shift`] | 17 fringes ("16–15") |
+//! | line scanning (LS) | [`line_scan`] | dark, white, one lit column per frame (768) |
+//!
+//! [`PatternSequence`] is what a simulator renders and a pattern writer draws, for these and
+//! the FSM plans alike; [`PixelDecoder`] is what turns one pixel's samples into candidates, and
+//! its [`PixelDecoder::decode_row`] checks a row once for every baseline.
+
+pub mod line_scan;
+pub mod micro_phase_shift;
+pub mod phase_shift;
+
+use crate::candidate::{ColumnRange, PixelCandidates};
+use crate::decoder::{Row, RowError};
+
+/// A sequence of projected frames, each a value per projector column: what a simulator renders
+/// and a pattern writer draws, for FSM plans and the baselines alike.
+pub trait PatternSequence {
+    /// Projector columns.
+    fn projector_columns(&self) -> u16;
+    /// Frames in the sequence, reference frames included.
+    fn frame_count(&self) -> usize;
+    /// Frames that code the column, reference frames (dark, white) not counted: the figure the
+    /// paper compares methods by. Every frame, unless the sequence says otherwise.
+    fn pattern_count(&self) -> usize {
+        self.frame_count()
+    }
+    /// Relative intensity in `[0, 1]` of frame `frame` at `column`.
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32;
+    /// Identity of the sequence, carried by row dumps of its captures.
+    fn fingerprint(&self) -> u64;
+}
+
+impl PatternSequence for crate::plan::ScanPlan {
+    fn projector_columns(&self) -> u16 {
+        self.projector_columns
+    }
+
+    fn frame_count(&self) -> usize {
+        self.sequence_len()
+    }
+
+    fn pattern_count(&self) -> usize {
+        crate::plan::ScanPlan::pattern_count(self)
+    }
+
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
+        self.pattern(frame)
+            .map_or(0.0, |p| self.intensity(p, column))
+    }
+
+    fn fingerprint(&self) -> u64 {
+        crate::plan::ScanPlan::fingerprint(self)
+    }
+}
+
+/// A baseline's decoder of one pixel, and of a row of them.
+pub trait PixelDecoder: PatternSequence {
+    /// Decodes one pixel from its samples in sequence order (`samples(i)` is frame `i`'s):
+    /// its candidates within `range`, strongest first. `saturation` is the sensor's top code.
+    fn decode_pixel<const K: usize>(
+        &self,
+        samples: impl Fn(usize) -> u16,
+        saturation: u16,
+        range: &ColumnRange,
+        out: &mut PixelCandidates<K>,
+    );
+
+    /// Decodes every pixel of a row in the decoder's layout (`frames[i·W + x]`, this plan's
+    /// frame order): the baselines' counterpart of [`crate::Decoder::decode_row`], with the same
+    /// checks and errors.
+    fn decode_row<const K: usize>(
+        &self,
+        row: &Row<'_>,
+        out: &mut [PixelCandidates<K>],
+    ) -> Result<(), RowError> {
+        if row.width == 0 {
+            return Err(RowError::EmptyRow);
+        }
+        if !(1..=16).contains(&row.bit_depth) {
+            return Err(RowError::BitDepth {
+                bit_depth: row.bit_depth,
+            });
+        }
+        let expected = self.frame_count().saturating_mul(row.width);
+        if row.frames.len() != expected {
+            return Err(RowError::FramesLength {
+                expected,
+                actual: row.frames.len(),
+            });
+        }
+        if out.len() != row.width {
+            return Err(RowError::OutputLength {
+                expected: row.width,
+                actual: out.len(),
+            });
+        }
+        if let Some(limits) = row.column_limits {
+            if limits.len() != row.width {
+                return Err(RowError::ColumnLimitsLength {
+                    expected: row.width,
+                    actual: limits.len(),
+                });
+            }
+        }
+        let saturation = ((1u32 << row.bit_depth) - 1) as u16;
+        let projector = ColumnRange::projector(self.projector_columns());
+        for (x, pixel) in out.iter_mut().enumerate() {
+            let range = row
+                .column_limits
+                .map_or(projector, |l| projector.intersect(&l[x]));
+            self.decode_pixel(|i| row.frames[i * row.width + x], saturation, &range, pixel);
+        }
+        Ok(())
+    }
+}

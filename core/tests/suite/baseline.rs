@@ -1,0 +1,464 @@
+//! The methods FSM is compared with: phase shift (exact on direct light, wrong under
+//! interreflection, paper §III-B), Micro Phase Shifting (exact on direct light, its code broken
+//! by a second light) and line scanning (every light found, but with a whole sample's noise per
+//! column where BFSM, with as many patterns, has `√(2/span)` of it: paper Fig. 13).
+
+use crate::support;
+
+use fsm_core::baseline::line_scan::{LineDetector, LineScanError};
+use fsm_core::baseline::micro_phase_shift::{MicroPhaseShiftError, MAX_FREQUENCIES};
+use fsm_core::baseline::phase_shift::{PhaseShiftError, PhaseShiftPattern};
+use fsm_core::{
+    ColumnRange, LineScanPlan, MicroPhaseShiftPlan, PatternSequence, PhaseShiftPlan,
+    PixelCandidates, PixelDecoder, ScanPlan,
+};
+use support::{Noise, Pixel, SYNTHETIC_SENSOR};
+
+/// 12-bit samples of a pixel under every frame of `plan`, with `sigma` DN noise.
+fn samples(plan: &impl PatternSequence, pixel: &Pixel, sigma: f64, noise: &mut Noise) -> Vec<u16> {
+    (0..plan.frame_count())
+        .map(|i| {
+            let v = pixel.ambient
+                + pixel
+                    .lights
+                    .iter()
+                    .map(|&(j, w)| w * plan.frame_intensity(i, j) as f64)
+                    .sum::<f64>();
+            (v + sigma * noise.normal()).round().clamp(0.0, 4095.0) as u16
+        })
+        .collect()
+}
+
+fn decode<P: PixelDecoder>(plan: &P, s: &[u16]) -> PixelCandidates<4> {
+    let mut out = PixelCandidates::<4>::new();
+    plan.decode_pixel(
+        |i| s[i],
+        4095,
+        &ColumnRange::projector(plan.projector_columns()),
+        &mut out,
+    );
+    out
+}
+
+/// The paper's line scan, told that its samples come from the synthetic sensor (1 DN).
+fn line_scan() -> LineScanPlan {
+    LineScanPlan {
+        sensor: SYNTHETIC_SENSOR,
+        ..LineScanPlan::paper()
+    }
+}
+
+#[test]
+fn the_papers_ps_is_six_offsets_and_seven_gray_codes() {
+    let plan = PhaseShiftPlan::paper();
+    plan.validate().unwrap();
+    assert_eq!(plan.frame_count(), 2 + 6 + 7);
+    assert_eq!(plan.pattern(2), Some(PhaseShiftPattern::Fringe { step: 0 }));
+    assert_eq!(plan.pattern(8), Some(PhaseShiftPattern::Gray { bit: 0 }));
+    let mut short = plan;
+    short.period_columns = 8; // 768 columns are 192 half periods of 4 columns: 8 bits
+    assert_eq!(
+        short.validate(),
+        Err(PhaseShiftError::Bits { bits: 7, needed: 8 })
+    );
+    assert!(short
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("8 bits needed"));
+    // The FSM plans render through the same trait.
+    let bfsm = ScanPlan::paper_bfsm();
+    assert_eq!(bfsm.frame_count(), bfsm.sequence_len());
+}
+
+#[test]
+fn every_column_decodes_under_direct_light() {
+    let plan = PhaseShiftPlan::paper();
+    let mut noise = Noise::new(1);
+    let mut worst: f64 = 0.0;
+    for c in 0..768u32 {
+        let s = samples(&plan, &Pixel::column(c, 1500.0), 1.0, &mut noise);
+        let out = decode(&plan, &s);
+        let got = out
+            .strongest()
+            .unwrap_or_else(|| panic!("column {c} not decoded"));
+        worst = worst.max((got.column as f64 - c as f64).abs());
+        assert!((got.amplitude - 750.0).abs() < 10.0, "column {c}: {got:?}");
+    }
+    println!("PS every column: worst {worst:.4}");
+    assert!(worst < 0.02, "worst {worst}");
+    // Defocused spots: a symmetric spot's phase is its centroid's.
+    for i in 0..200 {
+        let centre = 2.7 + i as f64 * 3.77;
+        let px = Pixel::spot(centre, 0.7, 1500.0);
+        let out = decode(&plan, &samples(&plan, &px, 1.0, &mut noise));
+        let e = (out.strongest().unwrap().column as f64 - px.centroid_near(centre)).abs();
+        assert!(e < 0.05, "spot at {centre}: error {e}");
+    }
+}
+
+#[test]
+fn a_second_light_moves_the_decoded_column() {
+    // Paper eq. 3: direct light at column 300 plus a mirror's light from column 523 at 60% of
+    // it. Both have the same fringe frequency, so the pixel sees one cosine whose phase lies
+    // between theirs: PS reports neither column.
+    let plan = PhaseShiftPlan::paper();
+    let mut noise = Noise::new(2);
+    let mut off = 0;
+    for i in 0..40 {
+        let direct = 300.0 + i as f64 * 0.25;
+        let px =
+            Pixel::spot(direct, 0.7, 1500.0).plus(Pixel::spot(523.0 + i as f64 * 0.1, 0.7, 900.0));
+        let out = decode(&plan, &samples(&plan, &px, 1.0, &mut noise));
+        let error = out
+            .strongest()
+            .map_or(f64::INFINITY, |c| (c.column as f64 - direct).abs());
+        off += (error > 0.5) as usize;
+    }
+    println!("PS with a 60% second light: {off} of 40 pixels off by more than 0.5 column");
+    assert!(off > 20, "{off}");
+}
+
+#[test]
+fn dim_pixels_are_not_decoded() {
+    let plan = PhaseShiftPlan::paper();
+    let s = samples(
+        &plan,
+        &Pixel {
+            lights: vec![],
+            ambient: 40.0,
+        },
+        1.0,
+        &mut Noise::new(3),
+    );
+    assert!(decode(&plan, &s).candidates.is_empty());
+}
+
+/// A row decodes as its pixels do, for every baseline, and a row of the wrong length is refused.
+fn rows_decode_like_pixels<P: PixelDecoder>(plan: &P) {
+    let mut noise = Noise::new(4);
+    let pixels: Vec<Vec<u16>> = (0..5)
+        .map(|i| {
+            samples(
+                plan,
+                &Pixel::spot(100.3 + 97.0 * i as f64, 0.7, 1500.0),
+                1.0,
+                &mut noise,
+            )
+        })
+        .collect();
+    let frames = support::row_frames(&pixels);
+    let row = fsm_core::Row {
+        frames: &frames,
+        width: 5,
+        bit_depth: 12,
+        column_limits: None,
+    };
+    let mut out = vec![PixelCandidates::<4>::new(); 5];
+    plan.decode_row(&row, &mut out).unwrap();
+    for (p, s) in out.iter().zip(&pixels) {
+        assert!(!p.candidates.is_empty());
+        assert_eq!(p, &decode(plan, s));
+    }
+    let short = fsm_core::Row {
+        frames: &frames[1..],
+        ..row
+    };
+    assert!(plan.decode_row(&short, &mut out).is_err());
+    // Column limits narrow what a pixel may report.
+    let limits = vec![
+        ColumnRange {
+            first: 0.0,
+            last: 50.0
+        };
+        5
+    ];
+    let limited = fsm_core::Row {
+        column_limits: Some(&limits),
+        ..row
+    };
+    plan.decode_row(&limited, &mut out).unwrap();
+    assert!(out.iter().all(|p| p.candidates.is_empty()));
+}
+
+#[test]
+fn rows_decode_like_their_pixels() {
+    rows_decode_like_pixels(&PhaseShiftPlan::paper());
+    rows_decode_like_pixels(&MicroPhaseShiftPlan::paper());
+    rows_decode_like_pixels(&line_scan());
+}
+
+/// The worst column error over every projector column lit alone, and over 200 defocused spots
+/// (whose light-weighted centre is their column), 1500 DN, 1 DN of noise.
+fn worst_error_under_direct_light<P: PixelDecoder>(plan: &P, seed: u64) -> f64 {
+    let mut noise = Noise::new(seed);
+    let mut worst: f64 = 0.0;
+    for c in 0..plan.projector_columns() as u32 {
+        let s = samples(plan, &Pixel::column(c, 1500.0), 1.0, &mut noise);
+        let got = decode(plan, &s);
+        let got = got
+            .strongest()
+            .unwrap_or_else(|| panic!("column {c} not decoded"));
+        worst = worst.max((got.column as f64 - c as f64).abs());
+    }
+    for i in 0..200 {
+        let centre = 2.7 + i as f64 * 3.77;
+        let px = Pixel::spot(centre, 0.7, 1500.0);
+        let out = decode(plan, &samples(plan, &px, 1.0, &mut noise));
+        let e = (out.strongest().unwrap().column as f64 - px.centroid_near(centre)).abs();
+        worst = worst.max(e);
+    }
+    worst
+}
+
+#[test]
+fn mps_decodes_every_column_under_direct_light() {
+    let plan = MicroPhaseShiftPlan::paper();
+    plan.validate().unwrap();
+    assert_eq!((plan.frame_count(), plan.pattern_count()), (17, 17));
+    let worst = worst_error_under_direct_light(&plan, 11);
+    println!("MPS every column and 200 spots: worst {worst:.4} column");
+    assert!(worst < 0.05, "worst {worst}");
+}
+
+#[test]
+fn mps_codes_of_distinct_columns_stay_apart() {
+    // The unwrapping can only be as good as the code: the cosines of the 14 single-offset
+    // frequencies plus the first frequency's full phase must differ between any two columns
+    // more than 1.5 apart, by more than the noise of a pixel with a few tens of DN of
+    // modulation. Computed over quarter columns of the whole projector.
+    let closest = closest_codes(&MicroPhaseShiftPlan::paper());
+    println!("MPS paper plan: closest codes of columns >= 1.5 apart: {closest:.3}");
+    assert!(closest > 0.5, "{closest}");
+    // Half the band (15-17 columns) brings columns one mean period apart closer.
+    let narrow = closest_codes(&MicroPhaseShiftPlan::spread(768, 16.0, 2.0, 15));
+    println!("15-17 columns: {narrow:.3}");
+    assert!(narrow < 0.5 * closest, "{narrow}");
+}
+
+/// The smallest distance between the codes of two columns of `plan` more than 1.5 apart, over
+/// quarter columns.
+fn closest_codes(plan: &MicroPhaseShiftPlan) -> f64 {
+    let periods: Vec<f64> = plan.periods().iter().map(|&p| p as f64).collect();
+    let code = |c: f64| -> Vec<f64> {
+        let mut v: Vec<f64> = periods
+            .iter()
+            .map(|p| (std::f64::consts::TAU * c / p).cos())
+            .collect();
+        v.push((std::f64::consts::TAU * c / periods[0]).sin());
+        v
+    };
+    let n = 4 * plan.projector_columns as usize;
+    let codes: Vec<Vec<f64>> = (0..n).map(|i| code(i as f64 / 4.0)).collect();
+    let mut closest = f64::INFINITY;
+    for i in 0..n {
+        for j in i + 7..n {
+            let d: f64 = codes[i]
+                .iter()
+                .zip(&codes[j])
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            closest = closest.min(d);
+        }
+    }
+    closest
+}
+
+#[test]
+fn mps_under_a_second_light_is_wrong_or_silent() {
+    // Direct light at 300 plus a mirror's light from 523 at 60% of it, as for PS: every
+    // frequency sees the sum of two cosines, so the code matches no column well.
+    let plan = MicroPhaseShiftPlan::paper();
+    let mut noise = Noise::new(12);
+    let (mut right, mut silent) = (0, 0);
+    for i in 0..40 {
+        let direct = 300.0 + i as f64 * 0.25;
+        let px =
+            Pixel::spot(direct, 0.7, 1500.0).plus(Pixel::spot(523.0 + i as f64 * 0.1, 0.7, 900.0));
+        let out = decode(&plan, &samples(&plan, &px, 1.0, &mut noise));
+        match out.strongest() {
+            None => silent += 1,
+            Some(c) => right += ((c.column as f64 - direct).abs() <= 0.5) as usize,
+        }
+    }
+    println!("MPS with a 60% second light: {right} of 40 right, {silent} without a candidate");
+    assert!(right < 20, "{right}");
+}
+
+#[test]
+fn mps_plan_rules() {
+    let plan = MicroPhaseShiftPlan::paper();
+    let mut one = plan;
+    one.frequencies = 1;
+    assert_eq!(
+        one.validate(),
+        Err(MicroPhaseShiftError::Frequencies { frequencies: 1 })
+    );
+    let mut many = plan;
+    many.frequencies = MAX_FREQUENCIES as u8 + 1;
+    assert!(many.validate().is_err());
+    let mut repeated = plan;
+    repeated.periods_columns[3] = repeated.periods_columns[1];
+    assert_eq!(
+        repeated.validate(),
+        Err(MicroPhaseShiftError::RepeatedPeriod { index: 3 })
+    );
+    let mut short = plan;
+    short.periods_columns[2] = 1.5;
+    let e = short.validate().unwrap_err();
+    assert_eq!(
+        e,
+        MicroPhaseShiftError::Period {
+            index: 2,
+            period_columns: 1.5
+        }
+    );
+    assert!(e.to_string().contains("periods_columns[2] = 1.5"), "{e}");
+    assert_ne!(plan.fingerprint(), short.fingerprint());
+    assert_ne!(plan.fingerprint(), PhaseShiftPlan::paper().fingerprint());
+}
+
+#[test]
+fn line_scan_decodes_every_column_under_direct_light() {
+    let plan = line_scan();
+    plan.validate().unwrap();
+    assert_eq!((plan.frame_count(), plan.pattern_count()), (770, 768));
+    assert_eq!(
+        plan.pattern_count(),
+        ScanPlan::paper_bfsm().pattern_count(),
+        "Fig. 13 compares the two with the same number of patterns"
+    );
+    for detector in [
+        LineDetector::Gaussian,
+        LineDetector::CentreOfMass { points: 5 },
+    ] {
+        let plan = LineScanPlan { detector, ..plan };
+        let worst = worst_error_under_direct_light(&plan, 21);
+        println!("LS {detector:?}, every column and 200 spots: worst {worst:.4} column");
+        assert!(worst < 0.05, "{detector:?}: worst {worst}");
+    }
+}
+
+#[test]
+fn line_scan_finds_a_mirrors_light_beside_the_direct_one() {
+    // The same pixels as PS's failure: LS sees both lights as separate temporal peaks.
+    let plan = line_scan();
+    let mut noise = Noise::new(22);
+    for i in 0..40 {
+        let direct = 300.0 + i as f64 * 0.25;
+        let mirror = 523.0 + i as f64 * 0.1;
+        let px = Pixel::spot(direct, 0.7, 1500.0).plus(Pixel::spot(mirror, 0.7, 900.0));
+        let out = decode(&plan, &samples(&plan, &px, 1.0, &mut noise));
+        assert_eq!(out.candidates.len(), 2, "{out:?}");
+        assert!((out.candidates[0].column as f64 - px.centroid_near(direct)).abs() < 0.1);
+        assert!((out.candidates[1].column as f64 - px.centroid_near(mirror)).abs() < 0.1);
+    }
+}
+
+#[test]
+fn line_scan_finds_no_light_in_sensor_noise() {
+    // A dark pixel with the paper plan's own sensor noise: 768 differences of two noisy
+    // samples, none of them a light.
+    let plan = LineScanPlan::paper();
+    let sigma = fsm_core::noise::sample_noise_dn(&plan.sensor, 12, 0.0) as f64;
+    let mut noise = Noise::new(23);
+    let dark = Pixel {
+        lights: vec![],
+        ambient: 40.0,
+    };
+    for _ in 0..200 {
+        let out = decode(&plan, &samples(&plan, &dark, sigma, &mut noise));
+        assert!(out.candidates.is_empty(), "{out:?}");
+    }
+}
+
+#[test]
+fn bfsm_is_more_precise_than_line_scanning_with_as_many_patterns() {
+    // Paper Fig. 13: the same 768 patterns, the same pixels and noise. A dim pixel (a light of
+    // 200 DN spread by a defocused footprint), 4 DN of noise per sample: LS locates the peak
+    // from three samples, BFSM from the inverse transform of all of them.
+    let sensor = fsm_core::SensorNoise {
+        read_noise_electrons: 4.0e6,
+        ..SYNTHETIC_SENSOR
+    };
+    let mut bfsm = ScanPlan::paper_bfsm();
+    bfsm.decoding.sensor = sensor;
+    let mut tables = vec![0.0; fsm_core::Decoder::tables_len(&bfsm)];
+    let decoder = fsm_core::Decoder::new(&bfsm, &mut tables).unwrap();
+    let mut scratch = vec![0.0; fsm_core::Decoder::scratch_len(&bfsm)];
+    let plan = LineScanPlan {
+        sensor,
+        ..LineScanPlan::paper()
+    };
+    let mut noise = Noise::new(24);
+    let (mut ls, mut fsm, mut n) = (0.0f64, 0.0f64, 0usize);
+    for i in 0..200 {
+        let centre = 40.3 + i as f64 * 3.41;
+        let px = Pixel::spot(centre, 0.8, 200.0);
+        let truth = px.centroid_near(centre);
+        let line = decode(&plan, &samples(&plan, &px, 4.0, &mut noise));
+        let frames = px.samples(&bfsm, 4.0, 12, &mut noise);
+        let row = fsm_core::Row {
+            frames: &frames,
+            width: 1,
+            bit_depth: 12,
+            column_limits: None,
+        };
+        let mut shifted = [PixelCandidates::<4>::new()];
+        decoder
+            .decode_row(&row, &mut scratch, &mut shifted)
+            .unwrap();
+        let shifted = &shifted[0];
+        let (Some(l), Some(f)) = (line.strongest(), shifted.strongest()) else {
+            panic!("spot {centre}: LS {line:?} BFSM {shifted:?}");
+        };
+        ls += (l.column as f64 - truth).powi(2);
+        fsm += (f.column as f64 - truth).powi(2);
+        n += 1;
+    }
+    let (ls, fsm) = ((ls / n as f64).sqrt(), (fsm / n as f64).sqrt());
+    println!(
+        "768 patterns, 4 DN noise: column RMS LS {ls:.4}, BFSM {fsm:.4} ({:.1}x)",
+        ls / fsm
+    );
+    assert!(ls > 4.0 * fsm, "LS {ls} vs BFSM {fsm}");
+}
+
+#[test]
+fn line_scan_plan_rules() {
+    let plan = LineScanPlan::paper();
+    let narrow = LineScanPlan {
+        projector_columns: 2,
+        ..plan
+    };
+    assert_eq!(
+        narrow.validate(),
+        Err(LineScanError::Columns {
+            projector_columns: 2
+        })
+    );
+    let even = LineScanPlan {
+        detector: LineDetector::CentreOfMass { points: 4 },
+        ..plan
+    };
+    let e = even.validate().unwrap_err();
+    assert_eq!(e, LineScanError::DetectorPoints { points: 4 });
+    assert!(e.to_string().contains("3, 5 or 7"), "{e}");
+    let never = LineScanPlan {
+        noise_factor: f32::NAN,
+        ..plan
+    };
+    assert!(never.validate().is_err());
+    let fingerprints = [
+        plan.fingerprint(),
+        even.fingerprint(),
+        line_scan().fingerprint(),
+        ScanPlan::paper_bfsm().fingerprint(),
+    ];
+    for (i, a) in fingerprints.iter().enumerate() {
+        for b in &fingerprints[i + 1..] {
+            assert_ne!(a, b);
+        }
+    }
+}

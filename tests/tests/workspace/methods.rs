@@ -1,0 +1,153 @@
+//! Every method of the paper's comparison through the same path (render, decode with the
+//! calibration's column limits, triangulate, select), against the simulator's ground truth:
+//! on a plane (each method within its expected precision; BFSM ahead of line scanning with as
+//! many patterns, paper Fig. 13) and beside a mirror (line scanning keeps the direct light as
+//! FSM does; phase shift and Micro Phase Shifting lose it, paper Figs. 9–10).
+//!
+//! The default run scans a band of rows; the figures print with `--nocapture`:
+//! `cargo test -p fsm-tests --test workspace methods:: -- --nocapture`.
+
+use crate::support;
+
+use std::ops::Range;
+
+use fsm_core::{LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
+use fsm_scan::decoded::Method;
+use fsm_scan::SelectionParams;
+use fsm_sim::comparison::{self, Scanned};
+use fsm_sim::{PixelTruth, Sensor, System};
+use support::transport;
+
+/// The methods, each plan stating the simulated sensor where it has a field for it.
+struct Plans {
+    bfsm: ScanPlan,
+    ps: PhaseShiftPlan,
+    mps: MicroPhaseShiftPlan,
+    ls: LineScanPlan,
+}
+
+impl Plans {
+    fn new() -> Plans {
+        let sensor = Sensor::default().datasheet();
+        let mut bfsm = ScanPlan::paper_bfsm();
+        bfsm.decoding.sensor = sensor;
+        Plans {
+            bfsm,
+            ps: PhaseShiftPlan::paper(),
+            mps: MicroPhaseShiftPlan::paper(),
+            ls: LineScanPlan {
+                sensor,
+                ..LineScanPlan::paper()
+            },
+        }
+    }
+
+    fn methods(&self) -> [(&'static str, Method<'_>); 4] {
+        [
+            ("BFSM", Method::Fsm(&self.bfsm)),
+            ("PS", Method::PhaseShift(&self.ps)),
+            ("MPS", Method::MicroPhaseShift(&self.mps)),
+            ("LS", Method::LineScan(&self.ls)),
+        ]
+    }
+}
+
+/// Of the directly lit pixels (away from edges): the share with a point, the share of those
+/// within 0.5 column of the truth, and the column RMS of the latter.
+struct Columns {
+    pixels: usize,
+    completeness: f64,
+    within_half: f64,
+    rms: f64,
+}
+
+fn columns(s: &Scanned, select: impl Fn(&PixelTruth) -> bool) -> Columns {
+    let (mut pixels, mut points, mut near, mut sum) = (0usize, 0usize, 0usize, 0.0f64);
+    for (i, t) in s.truth.iter().enumerate() {
+        if !t.is_lit_directly() || !select(t) {
+            continue;
+        }
+        pixels += 1;
+        if let Some(c) = s.surface.column[i] {
+            points += 1;
+            let e = c as f64 - t.direct_column;
+            if e.abs() <= 0.5 {
+                near += 1;
+                sum += e * e;
+            }
+        }
+    }
+    Columns {
+        pixels,
+        completeness: points as f64 / pixels.max(1) as f64,
+        within_half: near as f64 / points.max(1) as f64,
+        rms: (sum / near.max(1) as f64).sqrt(),
+    }
+}
+
+fn scan(scene: &str, rows: Range<u32>, method: Method<'_>, seed: u64) -> Scanned {
+    let system = System::bench();
+    let t = transport(scene, &system, rows);
+    let capture =
+        comparison::capture_of(method, &t, &system, Sensor::default(), seed).expect("capture");
+    let params = SelectionParams::for_calibration(&system.calibration);
+    comparison::scan_capture(&capture, method, &system, &params).expect("the capture scans")
+}
+
+#[test]
+fn every_method_measures_a_plane() {
+    let plans = Plans::new();
+    let mut rms = Vec::new();
+    for (name, method) in plans.methods() {
+        let c = columns(&scan("plane", 110..126, method, 7), |_| true);
+        println!(
+            "plane, {name:>4} ({} patterns): {} pixels, {:.2}% with a point, {:.2}% of them within 0.5 column, column RMS {:.4}",
+            method.patterns().pattern_count(),
+            c.pixels,
+            100.0 * c.completeness,
+            100.0 * c.within_half,
+            c.rms
+        );
+        assert!(c.pixels > 3000, "{name}: {} pixels", c.pixels);
+        assert!(c.completeness >= 0.99, "{name}: {}", c.completeness);
+        assert!(c.within_half >= 0.999, "{name}: {}", c.within_half);
+        rms.push(c.rms);
+    }
+    let [bfsm, ps, mps, ls] = rms[..] else {
+        unreachable!()
+    };
+    // Every method is sub-column on a plane; their precision follows how much light codes each
+    // column: BFSM's 768 patterns most, MPS's 17 least among the fringes.
+    assert!(bfsm <= 0.01, "BFSM {bfsm}");
+    assert!(ps <= 0.05 && mps <= 0.05, "PS {ps}, MPS {mps}");
+    // Fig. 13: the same 768 patterns, about 10 times the precision for BFSM in the paper.
+    println!(
+        "LS / BFSM column RMS with 768 patterns each: {:.1}",
+        ls / bfsm
+    );
+    assert!(ls >= 3.0 * bfsm, "LS {ls} vs BFSM {bfsm}");
+}
+
+#[test]
+fn beside_a_mirror_line_scanning_keeps_the_direct_light_and_the_fringes_lose_it() {
+    let plans = Plans::new();
+    let mut share = Vec::new();
+    for (name, method) in plans.methods() {
+        let s = scan("plane_mirror", 100..140, method, 8);
+        // Pixels whose mirrored light is at least a fifth of their direct light.
+        let c = columns(&s, |t| t.has_interreflection(0.2));
+        println!(
+            "plane_mirror, {name:>4}: {} interreflection pixels, {:.2}% with a point, {:.2}% of them within 0.5 column",
+            c.pixels,
+            100.0 * c.completeness,
+            100.0 * c.within_half
+        );
+        assert!(c.pixels > 200, "{name}: the rows must cross the reflection");
+        share.push(c.completeness * c.within_half);
+    }
+    let [bfsm, ps, mps, ls] = share[..] else {
+        unreachable!()
+    };
+    assert!(bfsm >= 0.98 && ls >= 0.95, "BFSM {bfsm}, LS {ls}");
+    assert!(ps <= 0.5 && mps <= 0.5, "PS {ps}, MPS {mps}");
+}
