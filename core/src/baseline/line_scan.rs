@@ -7,11 +7,14 @@
 //!
 //! Frames: dark, white, then frame `2 + j` lights column `j` alone.
 //!
-//! Choices the paper leaves open: every temporal peak that stands out of its surroundings is a
-//! candidate (strongest first, as FSM's), not only the brightest, so the selection chooses the
-//! direct one as it does for FSM; a peak stands out when it exceeds the lowest sample within
-//! [`PEAK_SURROUNDINGS`] columns on both sides by `noise_factor` times the noise of a sample
-//! (the sensor's, SPEC §2b), which keeps noise on a broad glossy lobe from becoming lights.
+//! Choices the paper leaves open (`docs/comparison.md`): every temporal peak that stands out
+//! of its surroundings is a candidate (strongest first, as FSM's), not only the brightest, so
+//! the selection chooses the direct one as it does for FSM. A peak stands out when it exceeds
+//! its surroundings by `noise_factor` times the noise of a sample (the sensor's, SPEC §2b): for
+//! a narrow light the lowest samples within [`PEAK_SURROUNDINGS`] columns on each side (so a
+//! direct light on a broad glossy lobe is measured above the lobe, and the lobe's noise makes
+//! no light), for a wide one (a flat top several columns across) the columns past its half
+//! height.
 
 use core::fmt;
 
@@ -21,10 +24,14 @@ use crate::math::{ln, sqrt};
 use crate::noise::sample_noise_dn;
 use crate::plan::sequence::Group;
 use crate::plan::SensorNoise;
+use crate::search::cosine::RIPPLE_DEPTH;
 
 /// Columns on each side of a temporal peak that it must stand out of, and that a stronger
 /// sample suppresses it within: about two footprints of a focused pixel.
 pub const PEAK_SURROUNDINGS: usize = 3;
+
+/// Most columns on each side of a peak the [`LineDetector::Auto`] centre of mass takes.
+pub const MAX_RUN: usize = 16;
 
 /// A line-scanning plan.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,6 +53,10 @@ pub struct LineScanPlan {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum LineDetector {
+    /// The Gaussian for a light at most 3 columns wide at half its height; for a wider one
+    /// (a camera pixel that sees several columns) the centre of mass of the run of columns
+    /// around the peak above 3 noise RMS, which a 3-point fit on a flat top would bias.
+    Auto,
     /// A Gaussian through the peak and its two neighbours (exact for a Gaussian spot); the
     /// centre of mass of the three where a neighbour is within 3 noise RMS of the
     /// surroundings (a light narrower than a column).
@@ -91,11 +102,11 @@ impl fmt::Display for LineScanError {
 
 impl LineScanPlan {
     /// The paper's comparison (Fig. 13): one frame per column of its 768-column projector, as
-    /// many patterns as BFSM; the 3-point Gaussian detector.
+    /// many patterns as BFSM; the Gaussian detector, or the centre of mass for wide lights.
     pub fn paper() -> Self {
         LineScanPlan {
             projector_columns: 768,
-            detector: LineDetector::Gaussian,
+            detector: LineDetector::Auto,
             noise_factor: 6.0,
             sensor: SensorNoise::default(),
         }
@@ -135,6 +146,7 @@ impl LineScanPlan {
         bytes[4] = match self.detector {
             LineDetector::Gaussian => 0,
             LineDetector::CentreOfMass { points } => points,
+            LineDetector::Auto => 1,
         };
         bytes[5..9].copy_from_slice(&self.noise_factor.to_le_bytes());
         bytes[9..13].copy_from_slice(&self.sensor.full_scale_electrons.to_le_bytes());
@@ -142,10 +154,11 @@ impl LineScanPlan {
         crate::wire::crc64(&bytes)
     }
 
-    /// The sub-column offset of the peak at `j` (`v(j)` above the surroundings' level); the
-    /// Gaussian needs both neighbours above `floor` (a few noise RMS): the log of a neighbour
-    /// lost in the noise would decide the offset, where the centre of mass weighs it little.
-    fn offset(&self, v: impl Fn(usize) -> f32, j: usize, floor: f32) -> f32 {
+    /// The sub-column offset of the peak at `j` (`v(j)` above the surroundings' level) of a
+    /// light more than 3 columns wide at half height or not (`wide`); the Gaussian needs both
+    /// neighbours above `floor` (a few noise RMS): the log of a neighbour lost in the noise
+    /// would decide the offset, where the centre of mass weighs it little.
+    fn offset(&self, v: impl Fn(usize) -> f32, j: usize, floor: f32, wide: bool) -> f32 {
         let last = self.projector_columns as usize - 1;
         let centre_of_mass = |half: usize| {
             let (mut sum, mut moment) = (0.0f32, 0.0f32);
@@ -160,8 +173,8 @@ impl LineScanPlan {
                 0.0
             }
         };
-        match self.detector {
-            LineDetector::Gaussian if j > 0 && j < last => {
+        let gaussian = || {
+            if j > 0 && j < last {
                 let (l, c, r) = (v(j - 1), v(j), v(j + 1));
                 if l > floor && r > floor {
                     let (ll, lc, lr) = (ln(l), ln(c), ln(r));
@@ -170,10 +183,32 @@ impl LineScanPlan {
                         return ((ll - lr) / d).clamp(-0.5, 0.5);
                     }
                 }
-                centre_of_mass(1)
             }
-            LineDetector::Gaussian => centre_of_mass(1),
+            centre_of_mass(1)
+        };
+        match self.detector {
+            LineDetector::Gaussian => gaussian(),
             LineDetector::CentreOfMass { points } => centre_of_mass(points as usize / 2),
+            LineDetector::Auto => {
+                if !wide {
+                    return gaussian();
+                }
+                // The run of columns above the floor, at most MAX_RUN on each side.
+                let (mut lo, mut hi) = (j, j);
+                while lo > 0 && j - lo < MAX_RUN && v(lo - 1) > floor {
+                    lo -= 1;
+                }
+                while hi < last && hi - j < MAX_RUN && v(hi + 1) > floor {
+                    hi += 1;
+                }
+                let (mut sum, mut moment) = (0.0f32, 0.0f32);
+                for k in lo..=hi {
+                    let w = v(k);
+                    sum += w;
+                    moment += w * (k as f32 - j as f32);
+                }
+                moment / sum
+            }
         }
     }
 }
@@ -228,33 +263,66 @@ impl PixelDecoder for LineScanPlan {
         let bit_depth = (u16::BITS - saturation.leading_zeros()) as u8;
         let dark_noise = sample_noise_dn(&self.sensor, bit_depth, 0.0);
         let r = PEAK_SURROUNDINGS;
-        for j in 0..columns {
-            let peak = value(j);
-            let (lo, hi) = (j.saturating_sub(r), (j + r).min(columns - 1));
-            // A peak is the first of the largest samples within its surroundings.
-            if (lo..j).any(|k| value(k) >= peak) || (j + 1..=hi).any(|k| value(k) > peak) {
-                continue;
-            }
-            let low = |ks: core::ops::Range<usize>| ks.map(value).fold(f32::INFINITY, f32::min);
-            // At the projector's edges the missing side is the dark level.
-            let left = if j >= r { low(lo..j) } else { 0.0 };
-            let right = if j + r < columns {
-                low(j + 1..hi + 1)
+        let low = |ks: core::ops::Range<usize>| ks.map(value).fold(f32::INFINITY, f32::min);
+        // The levels around columns `a..=b`: the lowest samples within `r` columns on each
+        // side (past the projector's edges, the dark level), lower first.
+        let surroundings = |a: usize, b: usize| {
+            let left = if a >= r { low(a - r..a) } else { 0.0 };
+            let right = if b + r < columns {
+                low(b + 1..b + r + 1)
             } else {
                 0.0
             };
-            let base = left.max(right).max(0.0);
-            let height = peak - base;
+            (left.min(right).max(0.0), left.max(right).max(0.0))
+        };
+        for j in 0..columns {
+            let peak = value(j);
+            let (lo, hi) = (j.saturating_sub(r), (j + r).min(columns - 1));
+            // A peak is the first of the largest samples within `r` columns.
+            if (lo..j).any(|k| value(k) >= peak) || (j + 1..=hi).any(|k| value(k) > peak) {
+                continue;
+            }
             let noise = sqrt(
                 dark_noise * dark_noise + {
                     let s = sample_noise_dn(&self.sensor, bit_depth, peak);
                     s * s
                 },
             );
-            if height <= self.noise_factor * noise {
+            let threshold = self.noise_factor * noise;
+            // The columns next to `j` above half its height over `level`, on each side.
+            let half_run = |level: f32| {
+                let half = level + 0.5 * (peak - level);
+                let a = (1..=MAX_RUN)
+                    .take_while(|&d| j >= d && value(j - d) > half)
+                    .count();
+                let b = (1..=MAX_RUN)
+                    .take_while(|&d| j + d < columns && value(j + d) > half)
+                    .count();
+                (j - a, j + b)
+            };
+            // A narrow light (at most 3 columns at half height over the lower side) stands out
+            // of the columns next to it on both sides, also on a broad lobe; a wide one (a
+            // flat top several columns across, whose edge would stand out of its own top on
+            // one side) out of those past its half height over the dark level. A bump of less
+            // than RIPPLE_DEPTH of the peak is the uneven top of a wide light, not a light.
+            let (lower, higher) = surroundings(j, j);
+            let (a, b) = half_run(lower);
+            let wide = !(b - a < 3 && peak - higher > threshold.max(RIPPLE_DEPTH * peak));
+            let base = if !wide {
+                higher
+            } else {
+                let (a, b) = half_run(0.0);
+                // The first of the light's largest samples is its peak.
+                if (a..j).any(|k| value(k) >= peak) || (j + 1..=b).any(|k| value(k) > peak) {
+                    continue;
+                }
+                surroundings(a, b).1
+            };
+            if peak - base <= threshold {
                 continue;
             }
-            let column = j as f32 + self.offset(|k| value(k) - base, j, 3.0 * noise);
+            let height = peak - base;
+            let column = j as f32 + self.offset(|k| value(k) - base, j, 3.0 * noise, wide);
             if range.contains(column) {
                 out.offer(
                     Candidate {
