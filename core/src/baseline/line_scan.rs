@@ -79,6 +79,9 @@ pub enum LineScanError {
     DetectorPoints { points: u8 },
     /// The noise factor must be positive and finite.
     NoiseFactor { noise_factor: f32 },
+    /// The sensor's noise model: a finite full-scale charge above 0, a finite read noise not
+    /// below 0.
+    Sensor { field: &'static str, value: f32 },
 }
 
 impl fmt::Display for LineScanError {
@@ -95,6 +98,10 @@ impl fmt::Display for LineScanError {
             LineScanError::NoiseFactor { noise_factor } => write!(
                 f,
                 "noise_factor = {noise_factor}: must be a positive number"
+            ),
+            LineScanError::Sensor { field, value } => write!(
+                f,
+                "{field} = {value}: must be a finite number (above 0 for the full-scale charge, not below 0 for the read noise)"
             ),
         }
     }
@@ -127,6 +134,22 @@ impl LineScanPlan {
         if !(self.noise_factor.is_finite() && self.noise_factor > 0.0) {
             return Err(LineScanError::NoiseFactor {
                 noise_factor: self.noise_factor,
+            });
+        }
+        let (full, read) = (
+            self.sensor.full_scale_electrons,
+            self.sensor.read_noise_electrons,
+        );
+        if !(full.is_finite() && full > 0.0) {
+            return Err(LineScanError::Sensor {
+                field: "sensor.full_scale_electrons",
+                value: full,
+            });
+        }
+        if !(read.is_finite() && read >= 0.0) {
+            return Err(LineScanError::Sensor {
+                field: "sensor.read_noise_electrons",
+                value: read,
             });
         }
         Ok(())

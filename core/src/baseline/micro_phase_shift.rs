@@ -56,6 +56,8 @@ pub enum MicroPhaseShiftError {
     Period { index: u8, period_columns: f32 },
     /// Two frequencies share a period: their frames say the same.
     RepeatedPeriod { index: u8 },
+    /// A threshold must be a finite number, not below 0.
+    Threshold { field: &'static str, value: f32 },
 }
 
 impl fmt::Display for MicroPhaseShiftError {
@@ -76,6 +78,9 @@ impl fmt::Display for MicroPhaseShiftError {
                 f,
                 "periods_columns[{index}] repeats an earlier period: every frequency must differ"
             ),
+            MicroPhaseShiftError::Threshold { field, value } => {
+                write!(f, "{field} = {value}: must be a finite number, not below 0")
+            }
         }
     }
 }
@@ -132,6 +137,14 @@ impl MicroPhaseShiftPlan {
                 return Err(MicroPhaseShiftError::RepeatedPeriod { index: i as u8 });
             }
         }
+        for (field, value) in [
+            ("min_modulation_dn", self.min_modulation_dn),
+            ("max_code_residual", self.max_code_residual),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(MicroPhaseShiftError::Threshold { field, value });
+            }
+        }
         Ok(())
     }
 
@@ -145,8 +158,9 @@ impl MicroPhaseShiftPlan {
         self.periods().len() + 2
     }
 
-    /// `(period index, phase offset in turns)` of frame `frame`.
-    fn frame(&self, frame: usize) -> Option<(usize, f64)> {
+    /// `(frequency index, phase offset in turns)` of frame `frame`: what it shows is
+    /// `½ + ½cos(2π(c/λ + offset))` with `λ = periods()[index]`.
+    pub fn frame(&self, frame: usize) -> Option<(usize, f64)> {
         match frame {
             0..=2 => Some((0, frame as f64 / 3.0)),
             f if f < self.sequence_len() => Some((f - 2, 0.0)),

@@ -37,7 +37,7 @@ pub struct PhaseShiftPlan {
 }
 
 /// A violated phase-shift plan rule.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[allow(missing_docs)] // each field is the value the variant reports
 pub enum PhaseShiftError {
@@ -47,6 +47,8 @@ pub enum PhaseShiftError {
     Period { period_columns: u16 },
     /// `2^bits` half periods must cover the `cmax` columns.
     Bits { bits: u8, needed: u8 },
+    /// A threshold must be a finite number, not below 0.
+    Threshold { field: &'static str, value: f32 },
 }
 
 impl fmt::Display for PhaseShiftError {
@@ -62,6 +64,9 @@ impl fmt::Display for PhaseShiftError {
                 f,
                 "bits = {bits}: the Gray code must count every period of the projector, {needed} bits needed"
             ),
+            PhaseShiftError::Threshold { field, value } => {
+                write!(f, "{field} = {value}: must be a finite number, not below 0")
+            }
         }
     }
 }
@@ -99,6 +104,26 @@ impl PhaseShiftPlan {
         }
     }
 
+    /// The paper's fringes (period 12 columns, 6 offsets) on a projector of `columns` columns,
+    /// with the Gray-code bits that count its half periods.
+    pub fn for_projector(columns: u16) -> Self {
+        let plan = PhaseShiftPlan {
+            projector_columns: columns,
+            ..Self::paper()
+        };
+        PhaseShiftPlan {
+            bits: plan.bits_needed(),
+            ..plan
+        }
+    }
+
+    /// Gray-code bits that count every half period of the projector.
+    pub fn bits_needed(&self) -> u8 {
+        let half_periods =
+            (2 * self.projector_columns as u32).div_ceil(self.period_columns.max(1) as u32);
+        (u32::BITS - half_periods.saturating_sub(1).leading_zeros()) as u8
+    }
+
     /// Checks the plan's rules.
     pub fn validate(&self) -> Result<(), PhaseShiftError> {
         if self.steps < 3 {
@@ -109,12 +134,18 @@ impl PhaseShiftPlan {
                 period_columns: self.period_columns,
             });
         }
-        let half_periods = (2 * self.projector_columns as u32).div_ceil(self.period_columns as u32);
-        let needed = (u32::BITS - (half_periods - 1).leading_zeros()) as u8;
+        let needed = self.bits_needed();
         if self.bits < needed || self.bits > 16 {
             return Err(PhaseShiftError::Bits {
                 bits: self.bits,
                 needed,
+            });
+        }
+        let value = self.min_modulation_dn;
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(PhaseShiftError::Threshold {
+                field: "min_modulation_dn",
+                value,
             });
         }
         Ok(())

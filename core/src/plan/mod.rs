@@ -494,14 +494,23 @@ impl ScanPlan {
     /// The paper quotes `f ∈ [1/768, 1/2]` and "768 images"; with `Δf = 1/1536` that band holds
     /// 767 frequencies, so this preset starts at `1/1536` to keep 768 patterns within `f ≤ 1/2`.
     pub fn paper_bfsm() -> Self {
+        Self::bfsm(768)
+    }
+
+    /// BFSM over `columns`: the full band `f_m = m/(2·cmax)`, `m = 1..=cmax` (one pattern per
+    /// column, SPEC §2b), `N` the power of two at or above `cmax` (at least 64).
+    pub fn bfsm(columns: u16) -> Self {
+        let transform = (columns as u32)
+            .next_power_of_two()
+            .max(MIN_TRANSFORM_SIZE as u32);
         ScanPlan {
-            projector_columns: 768,
+            projector_columns: columns,
             band: FringeBand {
-                period_columns: 1536,
+                period_columns: 2 * columns as u32,
                 first_harmonic: 1,
-                count: 768,
+                count: columns,
             },
-            transform_size: 1024,
+            transform_size: transform.min(u16::MAX as u32) as u16,
             method: Method::Bfsm,
             levels: PatternLevels::default(),
             references: References {

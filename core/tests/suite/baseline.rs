@@ -317,6 +317,23 @@ fn mps_plan_rules() {
     assert!(e.to_string().contains("periods_columns[2] = 1.5"), "{e}");
     assert_ne!(plan.fingerprint(), short.fingerprint());
     assert_ne!(plan.fingerprint(), PhaseShiftPlan::paper().fingerprint());
+    // Thresholds a plan file could spell as nan or inf.
+    let mut never = plan;
+    never.max_code_residual = f32::NAN;
+    assert!(matches!(
+        never.validate(),
+        Err(MicroPhaseShiftError::Threshold {
+            field: "max_code_residual",
+            ..
+        })
+    ));
+    let mut ps = PhaseShiftPlan::paper();
+    ps.min_modulation_dn = f32::INFINITY;
+    assert!(ps
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .starts_with("min_modulation_dn = inf"));
 }
 
 #[test]
@@ -491,6 +508,15 @@ fn line_scan_plan_rules() {
         ..plan
     };
     assert!(never.validate().is_err());
+    let mut deaf = plan;
+    deaf.sensor.full_scale_electrons = 0.0;
+    assert_eq!(
+        deaf.validate(),
+        Err(LineScanError::Sensor {
+            field: "sensor.full_scale_electrons",
+            value: 0.0
+        })
+    );
     let fingerprints = [
         plan.fingerprint(),
         even.fingerprint(),

@@ -1,8 +1,9 @@
-//! Plan files: the text is parsed as every syntax (TOML and JSON). Errors have a message; a
-//! plan that parses is valid and renders, in either syntax, to text that parses back to it.
+//! Plan files of every method (FSM and the baselines): the text is parsed as every syntax
+//! (TOML and JSON). Errors have a message; a plan that parses is valid and renders, in either
+//! syntax, to text that parses back to it.
 #![no_main]
 
-use fsm_io::plan_file::{parse_plan, render_plan, PlanSyntax};
+use fsm_io::plan_file::{parse_method_plan, render_method_plan, PlanSyntax};
 use libfuzzer_sys::fuzz_target;
 
 const SYNTAXES: [PlanSyntax; 2] = [PlanSyntax::Toml, PlanSyntax::Json];
@@ -12,12 +13,12 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     for syntax in SYNTAXES {
-        match parse_plan(text, syntax) {
+        match parse_method_plan(text, syntax) {
             Ok(plan) => {
                 plan.validate().expect("a parsed plan is valid");
                 for out in SYNTAXES {
-                    let rendered = render_plan(&plan, out);
-                    let back = parse_plan(&rendered, out).unwrap_or_else(|e| {
+                    let rendered = render_method_plan(&plan, out);
+                    let back = parse_method_plan(&rendered, out).unwrap_or_else(|e| {
                         panic!("rendered {out:?} plan does not parse: {e}\n{rendered}")
                     });
                     assert_eq!(back, plan, "{syntax:?} -> {out:?}");

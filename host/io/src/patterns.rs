@@ -2,26 +2,30 @@
 //! (`0000.png`, `0001.png`, …), with a manifest that says what each image is.
 //!
 //! Every value comes from the one pattern function, [`ScanPlan::intensity`] (paper eqs. 4, 14;
-//! SPEC §2–§3), so the images, the simulator and the decoder cannot disagree. An optional
+//! SPEC §2–§3), or a baseline's [`PatternSequence::frame_intensity`], so the images, the
+//! simulator and the decoder cannot disagree. An optional
 //! projector response ([`ProjectorResponse`]) pre-corrects the codes so that the emitted light,
 //! not the code, follows the cosine.
 
 use std::path::Path;
 
-use fsm_core::{Pattern, ScanPlan};
+use fsm_core::baseline::phase_shift::PhaseShiftPattern;
+use fsm_core::{Pattern, PatternSequence, ScanPlan};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::image_files::{self, ImageFormat};
 use crate::outputs::{self, StagedDir};
+use crate::plan_file::MethodPlan;
 use crate::progress::Progress;
 use crate::projector_response::ProjectorResponse;
 
 /// Name of the manifest written beside the images.
 pub const MANIFEST_NAME: &str = "manifest.json";
-/// Version of the manifest format.
-pub const MANIFEST_VERSION: u32 = 1;
+/// Version of the manifest format (2: `plan` is the plan file's form, so that a baseline's
+/// plan fits; the frames of baselines).
+pub const MANIFEST_VERSION: u32 = 2;
 
 /// How to render a pattern set.
 #[derive(Clone, Debug)]
@@ -47,9 +51,40 @@ pub fn pattern_row(
     max_code: u16,
     response: Option<&ProjectorResponse>,
 ) -> Vec<u16> {
+    codes(
+        |column| plan.intensity(pattern, column),
+        width,
+        max_code,
+        response,
+    )
+}
+
+/// The projector codes of one row of frame `frame` of any method's `patterns`.
+pub fn frame_row(
+    patterns: &dyn PatternSequence,
+    frame: usize,
+    width: u32,
+    max_code: u16,
+    response: Option<&ProjectorResponse>,
+) -> Vec<u16> {
+    codes(
+        |column| patterns.frame_intensity(frame, column),
+        width,
+        max_code,
+        response,
+    )
+}
+
+/// Codes of the light `light(column)` over `width` columns, pre-corrected by `response`.
+fn codes(
+    light: impl Fn(u32) -> f32,
+    width: u32,
+    max_code: u16,
+    response: Option<&ProjectorResponse>,
+) -> Vec<u16> {
     (0..width)
         .map(|column| {
-            let light = plan.intensity(pattern, column) as f64;
+            let light = light(column) as f64;
             let code = response.map_or(light, |r| r.code_for(light));
             (code * max_code as f64).round().clamp(0.0, max_code as f64) as u16
         })
@@ -96,6 +131,25 @@ pub enum ManifestPattern {
         /// The blocks it lights (two for group 2's shared edge mask).
         blocks: Vec<u16>,
     },
+    /// A baseline's sinusoidal fringe `½ + ½cos(2π(c/period + offset))` (phase shift, Micro
+    /// Phase Shifting).
+    PhaseFringe {
+        /// Period in columns.
+        period_columns: f64,
+        /// Phase offset in turns.
+        offset_turns: f64,
+    },
+    /// Phase shift's complementary Gray code: bit `bit` (0 = most significant) of the Gray code
+    /// of the half-period index.
+    GrayBit {
+        /// Bit, most significant first.
+        bit: u8,
+    },
+    /// Line scanning: column `column` alone full on.
+    Line {
+        /// The lit column.
+        column: u32,
+    },
 }
 
 /// One image of the set.
@@ -117,8 +171,8 @@ pub struct Manifest {
     pub format_version: u32,
     /// The plan's fingerprint, 16 hex digits.
     pub plan_fingerprint: String,
-    /// The plan itself.
-    pub plan: ScanPlan,
+    /// The plan itself, as its plan file holds it (without `format_version`).
+    pub plan: serde_json::Value,
     /// Image width, pixels.
     pub width: u32,
     /// Image height, pixels.
@@ -154,6 +208,36 @@ pub fn describe(plan: &ScanPlan, pattern: Pattern) -> ManifestPattern {
     }
 }
 
+/// The manifest entry of frame `frame` of `plan`, any method.
+pub fn describe_frame(plan: &MethodPlan, frame: usize) -> ManifestPattern {
+    match plan {
+        MethodPlan::Fsm(p) => describe(p, p.pattern(frame).expect("frame within the sequence")),
+        MethodPlan::PhaseShift(p) => match p.pattern(frame).expect("frame within the sequence") {
+            PhaseShiftPattern::Dark => ManifestPattern::Dark,
+            PhaseShiftPattern::White => ManifestPattern::White,
+            PhaseShiftPattern::Fringe { step } => ManifestPattern::PhaseFringe {
+                period_columns: p.period_columns as f64,
+                offset_turns: -(step as f64) / p.steps as f64,
+            },
+            PhaseShiftPattern::Gray { bit } => ManifestPattern::GrayBit { bit },
+        },
+        MethodPlan::MicroPhaseShift(p) => {
+            let (f, offset) = p.frame(frame).expect("frame within the sequence");
+            ManifestPattern::PhaseFringe {
+                period_columns: p.periods()[f] as f64,
+                offset_turns: offset,
+            }
+        }
+        MethodPlan::LineScan(_) => match frame {
+            0 => ManifestPattern::Dark,
+            1 => ManifestPattern::White,
+            f => ManifestPattern::Line {
+                column: (f - 2) as u32,
+            },
+        },
+    }
+}
+
 /// Writes the pattern images of `plan` and their manifest into the folder `out`, whole or not
 /// at all (an existing non-empty folder is refused unless `replace`).
 pub fn write_pattern_set(
@@ -164,19 +248,40 @@ pub fn write_pattern_set(
     replace: bool,
     progress: &Progress,
 ) -> Result<Manifest> {
-    plan.validate().map_err(|e| Error::PlanFile {
+    write_method_pattern_set(
+        &MethodPlan::Fsm(*plan),
+        options,
+        response_file,
+        out,
+        replace,
+        progress,
+    )
+}
+
+/// [`write_pattern_set`] for a plan of any method.
+pub fn write_method_pattern_set(
+    plan: &MethodPlan,
+    options: &PatternOptions,
+    response_file: Option<&Path>,
+    out: &Path,
+    replace: bool,
+    progress: &Progress,
+) -> Result<Manifest> {
+    plan.validate().map_err(|source| Error::PlanFile {
         path: out.to_path_buf(),
-        source: crate::plan_file::PlanFileError::Invalid(e),
+        source,
     })?;
-    let width = options.width.unwrap_or(plan.projector_columns as u32);
-    if width < plan.projector_columns as u32 || options.height == 0 {
+    let patterns = plan.patterns();
+    let columns = patterns.projector_columns() as u32;
+    let width = options.width.unwrap_or(columns);
+    if width < columns || options.height == 0 {
         return Err(Error::Usage(format!(
-            "projector size {width}x{}: the width must be at least the plan's {} columns and the height at least 1",
-            options.height, plan.projector_columns
+            "projector size {width}x{}: the width must be at least the plan's {columns} columns and the height at least 1",
+            options.height
         )));
     }
     let staged = StagedDir::create(out, replace)?;
-    let frames = plan.sequence_len();
+    let frames = patterns.frame_count();
     let max_code = if options.sixteen_bit {
         u16::MAX
     } else {
@@ -186,23 +291,28 @@ pub fn write_pattern_set(
     let entries: Vec<ManifestFrame> = (0..frames)
         .into_par_iter()
         .map(|index| {
-            let pattern = plan.pattern(index).expect("index below sequence_len");
             let file = frame_file_name(index, frames, options.format);
-            let row = pattern_row(plan, pattern, width, max_code, options.response.as_ref());
+            let row = frame_row(
+                plan.patterns(),
+                index,
+                width,
+                max_code,
+                options.response.as_ref(),
+            );
             write_pattern_image(&staged.file(&file), options, width, &row)?;
             progress.advance(1);
             Ok(ManifestFrame {
                 index,
                 file,
-                pattern: describe(plan, pattern),
+                pattern: describe_frame(plan, index),
             })
         })
         .collect::<Result<_>>()?;
     progress.finish();
     let manifest = Manifest {
         format_version: MANIFEST_VERSION,
-        plan_fingerprint: format!("{:016x}", plan.fingerprint()),
-        plan: *plan,
+        plan_fingerprint: format!("{:016x}", patterns.fingerprint()),
+        plan: crate::plan_file::plan_value(plan),
         width,
         height: options.height,
         bit_depth: if options.sixteen_bit { 16 } else { 8 },

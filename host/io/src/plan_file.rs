@@ -1,7 +1,10 @@
-//! Scan plans as files: TOML or JSON, versioned, mapping one to one onto [`ScanPlan`]
-//! (the format is documented in the host README, "Plan files").
+//! Scan plans as files: TOML or JSON, versioned, mapping one to one onto [`ScanPlan`], or onto
+//! one of the baselines FSM is compared with ([`MethodPlan`]; the format is documented in the
+//! host README, "Plan files").
 //!
 //! A plan file is the serde form of `ScanPlan` with one extra top-level key, `format_version`.
+//! A baseline's plan file has `format_version` and one table named for its method
+//! (`[phase_shift]`, `[micro_phase_shift]` or `[line_scan]`) holding the serde form of its plan.
 //! Reading goes through a generic value tree so that the version is checked before anything
 //! else, unknown keys are reported (a misspelt threshold must not silently fall back to
 //! nothing) and every type error names its field path (`band.count`, `method.Efsm.block_width`).
@@ -10,7 +13,10 @@
 use std::fmt;
 use std::path::Path;
 
-use fsm_core::{GroupCount, PlanError, ScanPlan};
+use fsm_core::{
+    GroupCount, LineScanPlan, MicroPhaseShiftPlan, PatternSequence, PhaseShiftPlan, PlanError,
+    ScanPlan,
+};
 use serde_json::Value;
 
 use crate::error::{Error, IoContext, Result};
@@ -90,6 +96,86 @@ impl Preset {
     }
 }
 
+/// A plan of any method the toolkit knows: FSM's, or one of the baselines the paper compares
+/// it with (`fsm_core::baseline`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MethodPlan {
+    /// BFSM or EFSM.
+    Fsm(ScanPlan),
+    /// Phase shift + Gray code.
+    PhaseShift(PhaseShiftPlan),
+    /// Micro Phase Shifting.
+    MicroPhaseShift(MicroPhaseShiftPlan),
+    /// Line scanning.
+    LineScan(LineScanPlan),
+}
+
+/// The table names of the baselines' plan files, in [`MethodPlan`] order.
+pub const BASELINE_TABLES: [&str; 3] = ["phase_shift", "micro_phase_shift", "line_scan"];
+
+impl MethodPlan {
+    /// The patterns the plan shows.
+    pub fn patterns(&self) -> &dyn PatternSequence {
+        match self {
+            MethodPlan::Fsm(p) => p,
+            MethodPlan::PhaseShift(p) => p,
+            MethodPlan::MicroPhaseShift(p) => p,
+            MethodPlan::LineScan(p) => p,
+        }
+    }
+
+    /// The method's short name in tables and summaries: BFSM, EFSM, PS, MPS or LS.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MethodPlan::Fsm(p) => match p.method {
+                fsm_core::Method::Bfsm => "BFSM",
+                fsm_core::Method::Efsm(_) => "EFSM",
+            },
+            MethodPlan::PhaseShift(_) => "PS",
+            MethodPlan::MicroPhaseShift(_) => "MPS",
+            MethodPlan::LineScan(_) => "LS",
+        }
+    }
+
+    /// The plan file's table for a baseline; `None` for FSM (whose fields are top level).
+    pub fn table(&self) -> Option<&'static str> {
+        match self {
+            MethodPlan::Fsm(_) => None,
+            MethodPlan::PhaseShift(_) => Some(BASELINE_TABLES[0]),
+            MethodPlan::MicroPhaseShift(_) => Some(BASELINE_TABLES[1]),
+            MethodPlan::LineScan(_) => Some(BASELINE_TABLES[2]),
+        }
+    }
+
+    /// Checks the method's rules.
+    pub fn validate(&self) -> Result<(), PlanFileError> {
+        let baseline = |method, message: String| PlanFileError::BaselineInvalid { method, message };
+        match self {
+            MethodPlan::Fsm(p) => p.validate().map_err(PlanFileError::Invalid),
+            MethodPlan::PhaseShift(p) => p
+                .validate()
+                .map_err(|e| baseline(BASELINE_TABLES[0], e.to_string())),
+            MethodPlan::MicroPhaseShift(p) => p
+                .validate()
+                .map_err(|e| baseline(BASELINE_TABLES[1], e.to_string())),
+            MethodPlan::LineScan(p) => p
+                .validate()
+                .map_err(|e| baseline(BASELINE_TABLES[2], e.to_string())),
+        }
+    }
+
+    /// The FSM plan, or the error a command that takes only FSM plans gives.
+    pub fn fsm(self) -> Result<ScanPlan, PlanFileError> {
+        match self {
+            MethodPlan::Fsm(p) => Ok(p),
+            other => Err(PlanFileError::OtherMethod {
+                found: other.table().unwrap_or("FSM"),
+                wanted: "FSM (BFSM or EFSM)",
+            }),
+        }
+    }
+}
+
 /// What is wrong with a plan file's text.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PlanFileError {
@@ -128,6 +214,20 @@ pub enum PlanFileError {
     },
     /// The plan breaks a rule of SPEC §2–§3 (the message names the field).
     Invalid(PlanError),
+    /// A baseline's plan breaks one of its rules (the message names the field).
+    BaselineInvalid {
+        /// The method's table name (`line_scan`, …).
+        method: &'static str,
+        /// The rule's message.
+        message: String,
+    },
+    /// The file holds a plan of another method than the command takes.
+    OtherMethod {
+        /// What the file holds (`line_scan`, …).
+        found: &'static str,
+        /// What the command takes.
+        wanted: &'static str,
+    },
 }
 
 impl fmt::Display for PlanFileError {
@@ -154,22 +254,44 @@ impl fmt::Display for PlanFileError {
                 known.join(", ")
             ),
             PlanFileError::Invalid(e) => write!(f, "invalid plan: {e}"),
+            PlanFileError::BaselineInvalid { method, message } => {
+                write!(f, "invalid {method} plan: {message}")
+            }
+            PlanFileError::OtherMethod { found, wanted } => write!(
+                f,
+                "this is a {found} plan; this command takes {wanted} plans (see the README, \"Plan files\")"
+            ),
         }
     }
 }
 
 impl std::error::Error for PlanFileError {}
 
-/// Parses the text of a plan file and validates the plan.
+/// Parses the text of an FSM plan file and validates the plan.
 pub fn parse_plan(text: &str, syntax: PlanSyntax) -> Result<ScanPlan, PlanFileError> {
+    parse_method_plan(text, syntax)?.fsm()
+}
+
+/// Parses the text of a plan file of any method and validates the plan.
+pub fn parse_method_plan(text: &str, syntax: PlanSyntax) -> Result<MethodPlan, PlanFileError> {
     let tree = parse_tree(text, syntax)?;
     plan_from_tree(tree)
 }
 
-/// Reads and validates the plan file at `path` (syntax from its extension).
+/// Reads and validates the FSM plan file at `path` (syntax from its extension).
 pub fn read_plan(path: &Path) -> Result<ScanPlan> {
+    read_method_plan(path)?
+        .fsm()
+        .map_err(|source| Error::PlanFile {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// Reads and validates the plan file of any method at `path` (syntax from its extension).
+pub fn read_method_plan(path: &Path) -> Result<MethodPlan> {
     let text = std::fs::read_to_string(path).at(path)?;
-    parse_plan(&text, PlanSyntax::for_path(path)).map_err(|source| Error::PlanFile {
+    parse_method_plan(&text, PlanSyntax::for_path(path)).map_err(|source| Error::PlanFile {
         path: path.to_path_buf(),
         source,
     })
@@ -177,44 +299,118 @@ pub fn read_plan(path: &Path) -> Result<ScanPlan> {
 
 /// The text of a plan file holding `plan`.
 pub fn render_plan(plan: &ScanPlan, syntax: PlanSyntax) -> String {
-    #[derive(serde::Serialize)]
-    struct PlanFile<'a> {
+    render_method_plan(&MethodPlan::Fsm(*plan), syntax)
+}
+
+/// The text of a plan file holding `plan`, of any method.
+pub fn render_method_plan(plan: &MethodPlan, syntax: PlanSyntax) -> String {
+    use serde::Serialize;
+    // The fields in the plan types' order, `format_version` first.
+    #[derive(Serialize)]
+    struct Fsm<'a> {
         format_version: u64,
         #[serde(flatten)]
         plan: &'a ScanPlan,
     }
-    let file = PlanFile {
-        format_version: PLAN_FILE_VERSION,
-        plan,
+    #[derive(Serialize)]
+    struct PhaseShift<'a> {
+        format_version: u64,
+        phase_shift: &'a PhaseShiftPlan,
+    }
+    #[derive(Serialize)]
+    struct MicroPhaseShift<'a> {
+        format_version: u64,
+        micro_phase_shift: &'a MicroPhaseShiftPlan,
+    }
+    #[derive(Serialize)]
+    struct LineScan<'a> {
+        format_version: u64,
+        line_scan: &'a LineScanPlan,
+    }
+    fn text(file: &impl Serialize, syntax: PlanSyntax) -> String {
+        match syntax {
+            PlanSyntax::Toml => toml::to_string(file).expect("a plan always has a TOML form"),
+            PlanSyntax::Json => {
+                let mut s =
+                    serde_json::to_string_pretty(file).expect("a plan always has a JSON form");
+                s.push('\n');
+                s
+            }
+        }
+    }
+    let format_version = PLAN_FILE_VERSION;
+    let body = match plan {
+        MethodPlan::Fsm(plan) => text(
+            &Fsm {
+                format_version,
+                plan,
+            },
+            syntax,
+        ),
+        MethodPlan::PhaseShift(p) => text(
+            &PhaseShift {
+                format_version,
+                phase_shift: p,
+            },
+            syntax,
+        ),
+        MethodPlan::MicroPhaseShift(p) => text(
+            &MicroPhaseShift {
+                format_version,
+                micro_phase_shift: p,
+            },
+            syntax,
+        ),
+        MethodPlan::LineScan(p) => text(
+            &LineScan {
+                format_version,
+                line_scan: p,
+            },
+            syntax,
+        ),
     };
     match syntax {
         PlanSyntax::Toml => {
-            let body = toml::to_string(&file).expect("a ScanPlan always has a TOML form");
+            let patterns = plan.patterns();
+            let what = match plan {
+                MethodPlan::Fsm(_) => "FSM scan plan".to_owned(),
+                _ => format!("{} plan (a method FSM is compared with)", plan.name()),
+            };
             format!(
-                "# FSM scan plan (format described in the host README, \"Plan files\").\n\
+                "# {what} (format described in the host README, \"Plan files\").\n\
                  # {} frames; plan fingerprint {:016x}.\n{body}",
-                plan.sequence_len(),
-                plan.fingerprint()
+                patterns.frame_count(),
+                patterns.fingerprint()
             )
         }
-        PlanSyntax::Json => {
-            let mut s =
-                serde_json::to_string_pretty(&file).expect("a ScanPlan always has a JSON form");
-            s.push('\n');
-            s
-        }
+        PlanSyntax::Json => body,
     }
+}
+
+/// `plan` as its plan file holds it, without `format_version` (a pattern manifest's `plan`).
+pub fn plan_value(plan: &MethodPlan) -> Value {
+    let mut tree: Value = serde_json::from_str(&render_method_plan(plan, PlanSyntax::Json))
+        .expect("a rendered plan is JSON");
+    if let Some(object) = tree.as_object_mut() {
+        object.remove("format_version");
+    }
+    tree
 }
 
 /// Validates `plan` and writes it to `path`, whole or not at all.
 pub fn write_plan(plan: &ScanPlan, path: &Path) -> Result<()> {
-    plan.validate().map_err(|e| Error::PlanFile {
+    write_method_plan(&MethodPlan::Fsm(*plan), path)
+}
+
+/// Validates `plan` (any method) and writes it to `path`, whole or not at all.
+pub fn write_method_plan(plan: &MethodPlan, path: &Path) -> Result<()> {
+    plan.validate().map_err(|source| Error::PlanFile {
         path: path.to_path_buf(),
-        source: PlanFileError::Invalid(e),
+        source,
     })?;
     outputs::write_file(
         path,
-        render_plan(plan, PlanSyntax::for_path(path)).as_bytes(),
+        render_method_plan(plan, PlanSyntax::for_path(path)).as_bytes(),
     )
 }
 
@@ -224,7 +420,16 @@ pub fn apply_settings<'a>(
     plan: &ScanPlan,
     settings: impl IntoIterator<Item = (&'a str, &'a str)>,
 ) -> Result<ScanPlan, PlanFileError> {
-    let text = render_plan(plan, PlanSyntax::Toml);
+    apply_method_settings(&MethodPlan::Fsm(*plan), settings)?.fsm()
+}
+
+/// [`apply_settings`] for a plan of any method (a baseline's keys start with its table:
+/// `line_scan.noise_factor`).
+pub fn apply_method_settings<'a>(
+    plan: &MethodPlan,
+    settings: impl IntoIterator<Item = (&'a str, &'a str)>,
+) -> Result<MethodPlan, PlanFileError> {
+    let text = render_method_plan(plan, PlanSyntax::Toml);
     let mut tree = parse_tree(&text, PlanSyntax::Toml)?;
     for (key, value) in settings {
         set_in_tree(&mut tree, key, parse_setting_value(value))?;
@@ -254,7 +459,7 @@ fn parse_tree(text: &str, syntax: PlanSyntax) -> Result<Value, PlanFileError> {
     Ok(tree)
 }
 
-fn plan_from_tree(mut tree: Value) -> Result<ScanPlan, PlanFileError> {
+fn plan_from_tree(mut tree: Value) -> Result<MethodPlan, PlanFileError> {
     let object = tree.as_object_mut().ok_or(PlanFileError::NotATable)?;
     match object.remove("format_version") {
         None => return Err(PlanFileError::MissingVersion),
@@ -265,20 +470,65 @@ fn plan_from_tree(mut tree: Value) -> Result<ScanPlan, PlanFileError> {
             })
         }
     }
+    let baseline = BASELINE_TABLES.iter().position(|t| object.contains_key(*t));
+    let plan = match baseline {
+        None => MethodPlan::Fsm(deserialize_checked(tree, "")?),
+        Some(i) => {
+            let table = BASELINE_TABLES[i];
+            let body = object.remove(table).expect("found above");
+            // A baseline's file holds its table alone.
+            if let Some(other) = object.keys().next() {
+                return Err(PlanFileError::UnknownField {
+                    field: other.clone(),
+                });
+            }
+            let prefix = format!("{table}.");
+            match i {
+                0 => MethodPlan::PhaseShift(deserialize_checked(body, &prefix)?),
+                1 => MethodPlan::MicroPhaseShift(deserialize_checked(body, &prefix)?),
+                _ => MethodPlan::LineScan(deserialize_checked(body, &prefix)?),
+            }
+        }
+    };
+    plan.validate()?;
+    Ok(plan)
+}
+
+/// `T` from `tree`, every type error and unknown key named by its dotted path after `prefix`.
+fn deserialize_checked<T: serde::de::DeserializeOwned>(
+    tree: Value,
+    prefix: &str,
+) -> Result<T, PlanFileError> {
     let mut unknown = Vec::new();
-    let plan: ScanPlan = {
+    let result: Result<T, _> = {
         let mut record = |path: serde_ignored::Path| unknown.push(path.to_string());
         let ignored = serde_ignored::Deserializer::new(&tree, &mut record);
-        serde_path_to_error::deserialize(ignored).map_err(|e| PlanFileError::Field {
-            field: field_path(e.path()),
-            message: e.into_inner().to_string(),
-        })?
+        serde_path_to_error::deserialize(ignored)
+    };
+    // A misspelt key is named as the user wrote it, before the field it leaves missing.
+    let value = match (result, unknown.first()) {
+        (Ok(value), _) => value,
+        (Err(_), Some(field)) => {
+            return Err(PlanFileError::UnknownField {
+                field: format!("{prefix}{field}"),
+            })
+        }
+        (Err(e), None) => {
+            return Err(PlanFileError::Field {
+                field: match field_path(e.path()) {
+                    p if p.is_empty() => prefix.trim_end_matches('.').to_owned(),
+                    p => format!("{prefix}{p}"),
+                },
+                message: e.into_inner().to_string(),
+            })
+        }
     };
     if let Some(field) = unknown.into_iter().next() {
-        return Err(PlanFileError::UnknownField { field });
+        return Err(PlanFileError::UnknownField {
+            field: format!("{prefix}{field}"),
+        });
     }
-    plan.validate().map_err(PlanFileError::Invalid)?;
-    Ok(plan)
+    Ok(value)
 }
 
 /// `serde_path_to_error` writes `.` for the root; the files' users know no root.
@@ -400,12 +650,11 @@ mod tests {
         let e = parse_plan(&bad, PlanSyntax::Toml).unwrap_err();
         assert!(e.to_string().contains("band.count"), "{e}");
 
-        let bad = text.replace("noise_factor = 5.0", "noise_factr = 5.0");
+        // The misspelt key as written, not only the field it leaves missing.
+        let bad = text.replace("\nnoise_factor = 5.0", "\nnoise_factr = 5.0");
+        assert_ne!(bad, text);
         let e = parse_plan(&bad, PlanSyntax::Toml).unwrap_err().to_string();
-        assert!(
-            e.contains("noise_factor") || e.contains("noise_factr"),
-            "{e}"
-        );
+        assert!(e.contains("field decoding.noise_factr is not part"), "{e}");
 
         let bad = text.replace("count = 768", "count = 8");
         let e = parse_plan(&bad, PlanSyntax::Toml).unwrap_err();
@@ -453,5 +702,86 @@ mod tests {
         let e = apply_settings(&plan, [("band.cuont", "3")]).unwrap_err();
         assert!(e.to_string().contains("band.cuont"), "{e}");
         assert!(e.to_string().contains("count"), "{e}");
+    }
+
+    fn baselines() -> [MethodPlan; 3] {
+        [
+            MethodPlan::PhaseShift(PhaseShiftPlan::for_projector(256)),
+            MethodPlan::MicroPhaseShift(MicroPhaseShiftPlan::spread(256, 16.0, 4.0, 15)),
+            MethodPlan::LineScan(LineScanPlan {
+                projector_columns: 256,
+                ..LineScanPlan::paper()
+            }),
+        ]
+    }
+
+    #[test]
+    fn baseline_plans_round_trip_and_are_not_fsm_plans() {
+        for plan in baselines() {
+            let table = plan.table().unwrap();
+            for syntax in [PlanSyntax::Toml, PlanSyntax::Json] {
+                let text = render_method_plan(&plan, syntax);
+                assert!(text.contains(table), "{text}");
+                assert_eq!(parse_method_plan(&text, syntax).unwrap(), plan);
+                // A command that takes FSM plans says what the file holds.
+                let e = parse_plan(&text, syntax).unwrap_err();
+                assert_eq!(
+                    e,
+                    PlanFileError::OtherMethod {
+                        found: table,
+                        wanted: "FSM (BFSM or EFSM)"
+                    }
+                );
+                assert!(e.to_string().contains(table), "{e}");
+            }
+        }
+        // FSM plans read as before through both entry points.
+        let bfsm = Preset::PaperBfsm.plan();
+        let text = render_plan(&bfsm, PlanSyntax::Toml);
+        assert_eq!(
+            parse_method_plan(&text, PlanSyntax::Toml).unwrap(),
+            MethodPlan::Fsm(bfsm)
+        );
+    }
+
+    #[test]
+    fn baseline_errors_name_the_field() {
+        let [ps, mps, ls] = baselines();
+        let text = render_method_plan(&ls, PlanSyntax::Toml);
+        let bad = text.replace("noise_factor =", "noise_factr =");
+        let e = parse_method_plan(&bad, PlanSyntax::Toml).unwrap_err();
+        assert_eq!(
+            e,
+            PlanFileError::UnknownField {
+                field: "line_scan.noise_factr".into()
+            }
+        );
+        let bad = text.replace("projector_columns = 256", "projector_columns = \"wide\"");
+        let e = parse_method_plan(&bad, PlanSyntax::Toml).unwrap_err();
+        assert!(e.to_string().contains("line_scan.projector_columns"), "{e}");
+        // A rule of the method, named by its field.
+        let text = render_method_plan(&ps, PlanSyntax::Toml);
+        let bad = text.replace("bits = 6", "bits = 5");
+        let e = parse_method_plan(&bad, PlanSyntax::Toml).unwrap_err();
+        assert!(
+            e.to_string().contains("invalid phase_shift plan: bits = 5"),
+            "{e}"
+        );
+        // A second method's table beside the first.
+        let text = render_method_plan(&mps, PlanSyntax::Toml) + "[line_scan]\n";
+        let e = parse_method_plan(&text, PlanSyntax::Toml).unwrap_err();
+        assert!(matches!(e, PlanFileError::UnknownField { .. }), "{e}");
+    }
+
+    #[test]
+    fn baseline_settings_are_keyed_by_their_table() {
+        let [_, _, ls] = baselines();
+        let p = apply_method_settings(&ls, [("line_scan.noise_factor", "8")]).unwrap();
+        let MethodPlan::LineScan(p) = p else {
+            panic!("{p:?}")
+        };
+        assert_eq!(p.noise_factor, 8.0);
+        let e = apply_method_settings(&ls, [("line_scan.noise", "8")]).unwrap_err();
+        assert!(e.to_string().contains("noise_factor"), "{e}");
     }
 }

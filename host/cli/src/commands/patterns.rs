@@ -11,14 +11,15 @@ use fsm_io::Result;
 /// Write the projector images of the plan's whole sequence, in projection order.
 ///
 /// Images are numbered 0000.png, 0001.png, … (dark and white references first, then each
-/// group's fringes and masks), with manifest.json saying what each image is. Every image is
-/// one projector row repeated down the height: patterns vary along columns only.
+/// group's fringes and masks; a baseline's frames in its own order), with manifest.json saying
+/// what each image is. Every image is one projector row repeated down the height: patterns
+/// vary along columns only. Takes a plan of any method (`fsm plan --method`).
 ///
 /// Example: fsm patterns --plan plan.toml --height 768 --out patterns/
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Scan-plan file.
+    /// Plan file, of any method.
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
     /// Output folder (created; must not exist or be empty, unless --force).
@@ -51,7 +52,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = super::load_plan(&args.plan)?;
+    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
     let response_file = args.gamma.as_deref().or(args.calibration.as_deref());
     let response = match (&args.gamma, &args.calibration) {
         (Some(path), _) => Some(ProjectorResponse::read(path)?),
@@ -69,7 +70,7 @@ pub fn run(args: Args) -> Result<()> {
         },
         response,
     };
-    let manifest = patterns::write_pattern_set(
+    let manifest = patterns::write_method_pattern_set(
         &plan,
         &options,
         response_file,

@@ -1,35 +1,61 @@
-//! `fsm plan`: write a scan-plan file from a preset (with overrides), or check one.
+//! `fsm plan`: write a plan file for any method (from a preset or from the projector's
+//! width, with overrides), or check one.
 
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
-use fsm_core::{Method, ScanPlan};
-use fsm_io::plan_file::{self, PlanSyntax, Preset};
+use fsm_core::{GroupCount, LineScanPlan, Method, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
+use fsm_io::plan_file::{self, MethodPlan, PlanSyntax, Preset};
 use fsm_io::stack::sequence_summary;
 use fsm_io::{Error, Result};
 
-/// Write or check a scan-plan file (TOML or JSON, chosen by the file extension).
+/// Write or check a plan file (TOML or JSON, chosen by the file extension).
 ///
 /// Examples:
 ///   fsm plan --preset paper-bfsm --out plan.toml
 ///   fsm plan --preset paper-efsm-2 --set decoding.noise_factor=5 --out plan.json
+///   fsm plan --method efsm --projector-columns 1024 --block-width 64 --groups 2 --out plan.toml
+///   fsm plan --method line-scan --projector-columns 1024 --out ls.toml
 ///   fsm plan --check plan.toml
 ///   fsm plan --check plan.toml --wire plan.bin
 ///
-/// Overrides use the file's dotted field names (see the README, "Plan files"); e.g.
-/// `--set band.count=512`, `--set method.Efsm.block_width=32`, `--set references.white=false`.
+/// --method derives every dependent field from the projector's width: BFSM's band (one fringe
+/// per column), EFSM's band and DFT size from the block width, phase shift's Gray-code bits,
+/// Micro Phase Shifting's periods (15 over 14-18 columns), line scanning's frames. Overrides
+/// use the file's dotted field names (see the README, "Plan files"); e.g.
+/// `--set band.count=512`, `--set method.Efsm.block_width=32`, `--set references.white=false`,
+/// `--set line_scan.noise_factor=8`.
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
     /// Start from a preset: the paper's systems (§VII): 768 projector columns; BFSM with 768
     /// fringes, or EFSM with 64-column blocks and one or two groups (76 / 152 patterns).
-    #[arg(long, value_enum, conflicts_with = "check")]
+    #[arg(long, value_enum, conflicts_with_all = ["check", "method"])]
     preset: Option<PresetName>,
+    /// Make a plan of this method for a projector of --projector-columns columns: BFSM, EFSM,
+    /// or one of the methods the paper compares them with (phase shift + Gray code, Micro Phase
+    /// Shifting, line scanning; see docs/comparison.md).
+    #[arg(
+        long,
+        value_enum,
+        conflicts_with = "check",
+        requires = "projector_columns"
+    )]
+    method: Option<MethodName>,
+    /// The projector's columns, for --method.
+    #[arg(long, value_name = "COLUMNS", requires = "method")]
+    projector_columns: Option<u16>,
+    /// EFSM: block width cB in columns (default 64).
+    #[arg(long, value_name = "COLUMNS", default_value_t = 64)]
+    block_width: u16,
+    /// EFSM: pattern groups, 1 or 2 (default 2).
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    groups: u8,
     /// Override a field: KEY=VALUE (repeatable); the result is validated.
-    #[arg(long = "set", value_name = "KEY=VALUE", requires = "preset")]
+    #[arg(long = "set", value_name = "KEY=VALUE")]
     settings: Vec<String>,
     /// Write the plan here (.toml or .json); without it the plan is printed.
-    #[arg(long, value_name = "FILE", requires = "preset")]
+    #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
     /// Check a plan file: print what it describes, or the first field that is wrong.
     #[arg(long, value_name = "FILE")]
@@ -63,6 +89,47 @@ enum PresetName {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
+enum MethodName {
+    /// Basic FSM: one fringe per projector column.
+    Bfsm,
+    /// Extended FSM: fringes of one block width, blocks told apart by masks.
+    Efsm,
+    /// Phase shift (6 offsets, period 12 columns) with Gray codes.
+    PhaseShift,
+    /// Micro Phase Shifting (Gupta & Nayar): 15 periods over 14-18 columns, 17 patterns.
+    MicroPhaseShift,
+    /// Line scanning: one column lit per pattern.
+    LineScan,
+}
+
+impl MethodName {
+    fn plan(self, columns: u16, block_width: u16, groups: u8) -> MethodPlan {
+        match self {
+            MethodName::Bfsm => MethodPlan::Fsm(ScanPlan::bfsm(columns)),
+            MethodName::Efsm => MethodPlan::Fsm(ScanPlan::efsm(
+                columns,
+                block_width,
+                if groups == 1 {
+                    GroupCount::One
+                } else {
+                    GroupCount::Two
+                },
+            )),
+            MethodName::PhaseShift => {
+                MethodPlan::PhaseShift(PhaseShiftPlan::for_projector(columns))
+            }
+            MethodName::MicroPhaseShift => {
+                MethodPlan::MicroPhaseShift(MicroPhaseShiftPlan::spread(columns, 16.0, 4.0, 15))
+            }
+            MethodName::LineScan => MethodPlan::LineScan(LineScanPlan {
+                projector_columns: columns,
+                ..LineScanPlan::paper()
+            }),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
 enum Syntax {
     Toml,
     Json,
@@ -70,22 +137,34 @@ enum Syntax {
 
 pub fn run(args: Args) -> Result<()> {
     if let Some(path) = &args.check {
-        let plan = plan_file::read_plan(path)?;
+        let plan = plan_file::read_method_plan(path)?;
         println!("{}: valid plan", path.display());
         print_summary(&plan);
         return write_wire(&plan, args.wire.as_deref());
     }
-    let Some(preset) = args.preset else {
-        return Err(Error::Usage(
-            "give --preset NAME (to write a plan) or --check FILE (to check one); see fsm plan --help".into(),
-        ));
-    };
-    let preset = match preset {
-        PresetName::PaperBfsm => Preset::PaperBfsm,
-        PresetName::PaperEfsm1 => Preset::PaperEfsm1,
-        PresetName::PaperEfsm2 => Preset::PaperEfsm2,
-        PresetName::PaperEfsm1Fast => Preset::PaperEfsm1Fast,
-        PresetName::PaperEfsm2Fast => Preset::PaperEfsm2Fast,
+    let (start, origin) = match (args.preset, args.method, args.projector_columns) {
+        (Some(preset), _, _) => {
+            let preset = match preset {
+                PresetName::PaperBfsm => Preset::PaperBfsm,
+                PresetName::PaperEfsm1 => Preset::PaperEfsm1,
+                PresetName::PaperEfsm2 => Preset::PaperEfsm2,
+                PresetName::PaperEfsm1Fast => Preset::PaperEfsm1Fast,
+                PresetName::PaperEfsm2Fast => Preset::PaperEfsm2Fast,
+            };
+            (
+                MethodPlan::Fsm(preset.plan()),
+                format!("preset {}", preset.name()),
+            )
+        }
+        (None, Some(method), Some(columns)) => (
+            method.plan(columns, args.block_width, args.groups),
+            format!("--method {method:?} --projector-columns {columns}"),
+        ),
+        _ => {
+            return Err(Error::Usage(
+                "give --preset NAME or --method NAME --projector-columns N (to write a plan), or --check FILE (to check one); see fsm plan --help".into(),
+            ))
+        }
     };
     let mut settings = Vec::new();
     for s in &args.settings {
@@ -95,13 +174,13 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let plan =
-        plan_file::apply_settings(&preset.plan(), settings).map_err(|source| Error::PlanFile {
-            path: format!("preset {}", preset.name()).into(),
+        plan_file::apply_method_settings(&start, settings).map_err(|source| Error::PlanFile {
+            path: origin.into(),
             source,
         })?;
     match &args.out {
         Some(out) => {
-            plan_file::write_plan(&plan, out)?;
+            plan_file::write_method_plan(&plan, out)?;
             eprintln!("wrote {}", out.display());
             print_summary(&plan);
         }
@@ -110,22 +189,69 @@ pub fn run(args: Args) -> Result<()> {
                 Syntax::Toml => PlanSyntax::Toml,
                 Syntax::Json => PlanSyntax::Json,
             };
-            print!("{}", plan_file::render_plan(&plan, syntax));
+            print!("{}", plan_file::render_method_plan(&plan, syntax));
         }
     }
     write_wire(&plan, args.wire.as_deref())
 }
 
-/// Writes the plan's wire bytes to `path`, whole or not at all.
-fn write_wire(plan: &ScanPlan, path: Option<&Path>) -> Result<()> {
-    if let Some(path) = path {
-        fsm_io::outputs::write_file(path, &plan.to_bytes())?;
-        eprintln!("wrote {} ({} bytes)", path.display(), plan.to_bytes().len());
-    }
+/// Writes the plan's wire bytes to `path`, whole or not at all: FSM plans only (the camera
+/// decodes FSM).
+fn write_wire(plan: &MethodPlan, path: Option<&Path>) -> Result<()> {
+    let Some(path) = path else {
+        return Ok(());
+    };
+    let plan = plan.fsm().map_err(|source| Error::PlanFile {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    fsm_io::outputs::write_file(path, &plan.to_bytes())?;
+    eprintln!("wrote {} ({} bytes)", path.display(), plan.to_bytes().len());
     Ok(())
 }
 
-fn print_summary(plan: &ScanPlan) {
+fn print_summary(plan: &MethodPlan) {
+    let patterns = plan.patterns();
+    match plan {
+        MethodPlan::Fsm(plan) => print_fsm_summary(plan),
+        MethodPlan::PhaseShift(p) => {
+            println!("  method:        phase shift + Gray code (a method FSM is compared with)");
+            println!("  projector:     {} columns", p.projector_columns);
+            println!(
+                "  fringes:       {} offsets of period {} columns; {} Gray-code bits",
+                p.steps, p.period_columns, p.bits
+            );
+        }
+        MethodPlan::MicroPhaseShift(p) => {
+            println!("  method:        Micro Phase Shifting (a method FSM is compared with)");
+            println!("  projector:     {} columns", p.projector_columns);
+            let periods: Vec<String> = p.periods().iter().map(|l| format!("{l:.3}")).collect();
+            println!(
+                "  fringes:       {} periods (columns; the first at 3 offsets): {}",
+                p.frequencies,
+                periods.join(", ")
+            );
+        }
+        MethodPlan::LineScan(p) => {
+            println!("  method:        line scanning (a method FSM is compared with)");
+            println!(
+                "  projector:     {} columns, one lit per pattern",
+                p.projector_columns
+            );
+            println!("  detector:      {:?}", p.detector);
+        }
+    }
+    if !matches!(plan, MethodPlan::Fsm(_)) {
+        println!(
+            "  frames:        {} ({} patterns)",
+            patterns.frame_count(),
+            patterns.pattern_count()
+        );
+        println!("  fingerprint:   {:016x}", patterns.fingerprint());
+    }
+}
+
+fn print_fsm_summary(plan: &ScanPlan) {
     let method = match plan.method {
         Method::Bfsm => "BFSM".to_owned(),
         Method::Efsm(b) => format!(

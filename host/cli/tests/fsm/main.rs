@@ -11,4 +11,5 @@ mod calibrate_response;
 mod calibrate_target;
 mod camera;
 mod commands;
+mod methods;
 mod scan;
