@@ -8,10 +8,9 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use fsm_core::ScanPlan;
-
 use crate::dump::{band_rows, DumpError, DumpReader};
 use crate::error::{Error, Result};
+use crate::plan_file::MethodPlan;
 use crate::stack::Stack;
 
 /// What to do with a dump record that fails its check (CRC, row index, a repeated row) or
@@ -74,7 +73,11 @@ pub struct RowBatch {
 
 impl Capture {
     /// Opens and checks a stack of images against `plan`.
-    pub fn open_stack(dir: &Path, plan: &ScanPlan, bit_depth: Option<u8>) -> Result<Self> {
+    pub fn open_stack(
+        dir: &Path,
+        plan: impl Into<MethodPlan>,
+        bit_depth: Option<u8>,
+    ) -> Result<Self> {
         Ok(Capture::Stack(Stack::open(dir, plan, bit_depth)?))
     }
 
@@ -82,7 +85,7 @@ impl Capture {
     /// unless bad rows are skipped: a short file then only misses its last rows).
     pub fn open_dump(
         path: &Path,
-        plan: &ScanPlan,
+        plan: impl Into<MethodPlan>,
         bit_depth: Option<u8>,
         bad_rows: BadRows,
     ) -> Result<Self> {
@@ -346,7 +349,7 @@ mod tests {
     use crate::image_files::ImageFormat;
     use crate::patterns::{write_pattern_set, PatternOptions};
     use crate::progress::Progress;
-    use fsm_core::GroupCount;
+    use fsm_core::{GroupCount, ScanPlan};
 
     fn stack(sixteen_bit: bool, dir: &Path) -> (ScanPlan, Capture) {
         let plan = ScanPlan::efsm(64, 16, GroupCount::One);

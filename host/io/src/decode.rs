@@ -15,7 +15,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use fsm_core::wire::candidates::CandidateHeader;
-use fsm_core::{Decoder, PixelFlags, Row, ScanPlan};
+use fsm_core::{Decoder, PixelDecoder, PixelFlags, Row};
 use rayon::prelude::*;
 
 use crate::candidate_file::{
@@ -25,6 +25,7 @@ use crate::capture::{BadRecord, BadRows, Capture, RowBatch, RowBatches};
 use crate::column_map::{ColumnMap, COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
 use crate::error::{Error, Result};
 use crate::outputs::StagedDir;
+use crate::plan_file::MethodPlan;
 use crate::progress::Progress;
 
 /// Default memory budget for captured samples held at once: 2 GiB.
@@ -119,10 +120,10 @@ impl DecodeSummary {
 }
 
 /// The candidate-file header of a scan decoded by the host.
-pub fn candidate_header(plan: &ScanPlan, width: u32, height: u32) -> CandidateHeader {
+pub fn candidate_header(plan: impl Into<MethodPlan>, width: u32, height: u32) -> CandidateHeader {
     CandidateHeader {
         capacity: CANDIDATE_CAPACITY as u16,
-        plan_fingerprint: plan.fingerprint(),
+        plan_fingerprint: plan.into().fingerprint(),
         width,
         height,
     }
@@ -137,7 +138,7 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
 
 /// Decodes every row of `capture`, handing the rows to `sink` in row order.
 pub fn decode_capture(
-    plan: &ScanPlan,
+    plan: impl Into<MethodPlan>,
     capture: &Capture,
     options: &DecodeOptions,
     progress: &Progress,
@@ -155,17 +156,17 @@ pub fn dump_batch_rows(threads: usize) -> u32 {
 
 /// Decodes every row `batches` delivers, handing the rows to `sink` in row order.
 pub fn decode_batches(
-    plan: &ScanPlan,
+    plan: impl Into<MethodPlan>,
     batches: &mut RowBatches<'_>,
     options: &DecodeOptions,
     progress: &Progress,
     mut sink: impl FnMut(DecodedRow) -> Result<()> + Send,
 ) -> Result<DecodeSummary> {
+    let plan: MethodPlan = plan.into();
     let started = Instant::now();
     let pool = thread_pool(options.threads)?;
-    let mut tables = vec![0.0f32; Decoder::tables_len(plan)];
-    let decoder = Decoder::new(plan, &mut tables)
-        .map_err(|e| Error::Usage(format!("cannot decode with this plan: {e}")))?;
+    let mut tables = Vec::new();
+    let decoder = RowDecoder::new(&plan, &mut tables)?;
     let width = batches.width();
     let height = batches.height();
     let bit_depth = batches.bit_depth();
@@ -193,7 +194,7 @@ pub fn decode_batches(
             .map_init(
                 || {
                     (
-                        vec![0.0f32; Decoder::scratch_len(plan)],
+                        vec![0.0f32; decoder.scratch_len()],
                         vec![HostCandidates::new(); width as usize],
                     )
                 },
@@ -299,8 +300,56 @@ fn row_without_data(header: &CandidateHeader, row: u32, width: u32) -> Result<De
     decoded_row(header, row, &vec![pixel; width as usize])
 }
 
+/// The line decoder of a plan: the core's FSM decoder (with its tables), or a baseline's.
+enum RowDecoder<'t> {
+    /// The decoder (boxed: 10 times a baseline's plan) and its scratch length.
+    Fsm(Box<Decoder<'t>>, usize),
+    Baseline(MethodPlan),
+}
+
+impl<'t> RowDecoder<'t> {
+    fn new(plan: &MethodPlan, tables: &'t mut Vec<f32>) -> Result<Self> {
+        Ok(match plan {
+            MethodPlan::Fsm(p) => {
+                tables.resize(Decoder::tables_len(p), 0.0);
+                RowDecoder::Fsm(
+                    Box::new(
+                        Decoder::new(p, tables).map_err(|e| {
+                            Error::Usage(format!("cannot decode with this plan: {e}"))
+                        })?,
+                    ),
+                    Decoder::scratch_len(p),
+                )
+            }
+            other => RowDecoder::Baseline(*other),
+        })
+    }
+
+    fn scratch_len(&self) -> usize {
+        match self {
+            RowDecoder::Fsm(_, len) => *len,
+            RowDecoder::Baseline(_) => 0,
+        }
+    }
+
+    fn decode_row(
+        &self,
+        row: &Row<'_>,
+        scratch: &mut [f32],
+        pixels: &mut [HostCandidates],
+    ) -> std::result::Result<(), fsm_core::RowError> {
+        match self {
+            RowDecoder::Fsm(d, _) => d.decode_row(row, scratch, pixels),
+            RowDecoder::Baseline(MethodPlan::PhaseShift(p)) => p.decode_row(row, pixels),
+            RowDecoder::Baseline(MethodPlan::MicroPhaseShift(p)) => p.decode_row(row, pixels),
+            RowDecoder::Baseline(MethodPlan::LineScan(p)) => p.decode_row(row, pixels),
+            RowDecoder::Baseline(MethodPlan::Fsm(_)) => unreachable!("FSM plans decode with Fsm"),
+        }
+    }
+}
+
 fn decode_row(
-    decoder: &Decoder<'_>,
+    decoder: &RowDecoder<'_>,
     header: &CandidateHeader,
     row: u32,
     frames: &[u16],
@@ -358,7 +407,7 @@ fn decoded_row(
 /// strongest-candidate column map as a float TIFF ([`COLUMN_TIFF_NAME`]) and its preview
 /// ([`COLUMN_PREVIEW_NAME`]). The folder appears whole or not at all.
 pub fn decode_to_dir(
-    plan: &ScanPlan,
+    plan: impl Into<MethodPlan>,
     capture: &Capture,
     out: &Path,
     replace: bool,
@@ -366,13 +415,13 @@ pub fn decode_to_dir(
     progress: &Progress,
 ) -> Result<DecodeSummary> {
     let staged = StagedDir::create(out, replace)?;
-    let summary = decode_into(plan, capture, &staged, options, progress)?;
+    let summary = decode_into(&plan.into(), capture, &staged, options, progress)?;
     staged.commit()?;
     Ok(summary)
 }
 
 fn decode_into(
-    plan: &ScanPlan,
+    plan: &MethodPlan,
     capture: &Capture,
     staged: &StagedDir,
     options: &DecodeOptions,
@@ -381,12 +430,12 @@ fn decode_into(
     let candidates_path = staged.file(CANDIDATE_FILE_NAME);
     let file =
         std::fs::File::create(&candidates_path).map_err(|e| Error::io(&candidates_path, e))?;
-    let header = candidate_header(plan, capture.width(), capture.height());
+    let header = candidate_header(*plan, capture.width(), capture.height());
     let io = |e| Error::io(staged.target().join(CANDIDATE_FILE_NAME), e);
     let mut writer = CandidateWriter::new(std::io::BufWriter::with_capacity(1 << 20, file), header)
         .map_err(io)?;
     let mut map = ColumnMap::new(capture.width(), capture.height());
-    let summary = decode_capture(plan, capture, options, progress, |row| {
+    let summary = decode_capture(*plan, capture, options, progress, |row| {
         writer.write_record(row.row, &row.record).map_err(io)?;
         map.set_row_columns(row.row, &row.strongest);
         Ok(())
@@ -395,6 +444,9 @@ fn decode_into(
     let file = out.into_inner().map_err(|e| io(e.into_error()))?;
     file.sync_all().map_err(io)?;
     map.write_tiff(&staged.file(COLUMN_TIFF_NAME))?;
-    map.write_preview(&staged.file(COLUMN_PREVIEW_NAME), plan.projector_columns)?;
+    map.write_preview(
+        &staged.file(COLUMN_PREVIEW_NAME),
+        plan.patterns().projector_columns(),
+    )?;
     Ok(summary)
 }

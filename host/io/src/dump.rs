@@ -303,7 +303,12 @@ impl<R: Read> DumpReader<R> {
 
     /// Checks that the dump was made with `plan` (fingerprint, or the one a version-1 plan had,
     /// and frame count) and, if given, at `bit_depth`.
-    pub fn check(&self, plan: &ScanPlan, bit_depth: Option<u8>) -> Result<(), DumpError> {
+    pub fn check(
+        &self,
+        plan: impl Into<crate::plan_file::MethodPlan>,
+        bit_depth: Option<u8>,
+    ) -> Result<(), DumpError> {
+        let plan = plan.into();
         let expected = plan.fingerprint();
         if !plan.has_fingerprint(self.header.plan_fingerprint) {
             return Err(DumpError::PlanMismatch {
@@ -312,11 +317,11 @@ impl<R: Read> DumpReader<R> {
                 expected,
             });
         }
-        if self.header.frames as usize != plan.sequence_len() {
+        if self.header.frames as usize != plan.frame_count() {
             return Err(DumpError::FrameCount {
                 path: self.path.clone(),
                 found: self.header.frames,
-                expected: plan.sequence_len(),
+                expected: plan.frame_count(),
             });
         }
         match bit_depth {

@@ -110,6 +110,12 @@ pub enum MethodPlan {
     LineScan(LineScanPlan),
 }
 
+impl From<&ScanPlan> for MethodPlan {
+    fn from(plan: &ScanPlan) -> Self {
+        MethodPlan::Fsm(*plan)
+    }
+}
+
 /// The table names of the baselines' plan files, in [`MethodPlan`] order.
 pub const BASELINE_TABLES: [&str; 3] = ["phase_shift", "micro_phase_shift", "line_scan"];
 
@@ -161,6 +167,42 @@ impl MethodPlan {
             MethodPlan::LineScan(p) => p
                 .validate()
                 .map_err(|e| baseline(BASELINE_TABLES[2], e.to_string())),
+        }
+    }
+
+    /// The fingerprint row dumps and candidate files of its captures carry.
+    pub fn fingerprint(&self) -> u64 {
+        self.patterns().fingerprint()
+    }
+
+    /// Whether a dump or candidate file with fingerprint `f` was recorded with this plan (an
+    /// FSM plan also answers to its version-1 fingerprint: [`ScanPlan::has_fingerprint`]).
+    pub fn has_fingerprint(&self, f: u64) -> bool {
+        match self {
+            MethodPlan::Fsm(p) => p.has_fingerprint(f),
+            other => other.fingerprint() == f,
+        }
+    }
+
+    /// Frames in the sequence.
+    pub fn frame_count(&self) -> usize {
+        self.patterns().frame_count()
+    }
+
+    /// The frames in words ("dark, white, 768 fringes"; "17 Micro Phase Shifting fringes").
+    pub fn sequence_summary(&self) -> String {
+        match self {
+            MethodPlan::Fsm(p) => crate::stack::sequence_summary(p),
+            MethodPlan::PhaseShift(p) => format!(
+                "dark, white, {} phase-shift fringes, {} Gray codes",
+                p.steps, p.bits
+            ),
+            MethodPlan::MicroPhaseShift(p) => {
+                format!("{} Micro Phase Shifting fringes", p.sequence_len())
+            }
+            MethodPlan::LineScan(p) => {
+                format!("dark, white, {} lines", p.projector_columns)
+            }
         }
     }
 

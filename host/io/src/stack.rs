@@ -16,6 +16,7 @@ use fsm_core::ScanPlan;
 use rayon::prelude::*;
 
 use crate::image_files::{self, ImageFormat, ImageInfo};
+use crate::plan_file::MethodPlan;
 
 /// What is wrong with a stack.
 #[derive(Debug, thiserror::Error)]
@@ -166,16 +167,21 @@ pub fn sequence_summary(plan: &ScanPlan) -> String {
 impl Stack {
     /// Finds and checks the captures of `plan` in `dir`: count, size and container depth of
     /// every image (headers only), and `bit_depth` (the sensor's; default: the container's).
-    pub fn open(dir: &Path, plan: &ScanPlan, bit_depth: Option<u8>) -> Result<Self, StackError> {
+    pub fn open(
+        dir: &Path,
+        plan: impl Into<MethodPlan>,
+        bit_depth: Option<u8>,
+    ) -> Result<Self, StackError> {
+        let plan: MethodPlan = plan.into();
         let found = numbered_images(dir)?;
-        let expected = plan.sequence_len();
+        let expected = plan.frame_count();
         let first_missing = (0..expected).find(|i| !found.contains_key(i));
         if found.len() != expected || first_missing.is_some() {
             return Err(StackError::Count {
                 dir: dir.to_path_buf(),
                 found: found.len(),
                 expected,
-                what: sequence_summary(plan),
+                what: plan.sequence_summary(),
                 first_missing,
             });
         }

@@ -11,6 +11,7 @@ use fsm_core::{
 use fsm_io::candidate_file::HostCandidates;
 use fsm_io::capture::Capture;
 use fsm_io::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary};
+use fsm_io::plan_file::MethodPlan;
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 use rayon::prelude::*;
@@ -66,16 +67,21 @@ pub struct DecodedImage {
 }
 
 impl DecodedImage {
-    /// Decodes an FSM capture (image stack or dump file) with the host's pipeline.
+    /// Decodes a capture (image stack or dump file) of any method's plan with the host's
+    /// pipeline.
     pub fn decode_capture(
-        plan: &ScanPlan,
+        plan: impl Into<MethodPlan>,
         capture: &Capture,
         options: &DecodeOptions,
         progress: &Progress,
     ) -> Result<(DecodedImage, DecodeSummary)> {
+        let plan: MethodPlan = plan.into();
         let (width, height) = (capture.width() as usize, capture.height() as usize);
         let mut image = DecodedImage::empty(width, height);
-        image.column_noise_dn = Decoder::dark_column_noise_dn(plan, capture.bit_depth());
+        image.column_noise_dn = match &plan {
+            MethodPlan::Fsm(p) => Decoder::dark_column_noise_dn(p, capture.bit_depth()),
+            _ => None,
+        };
         let header = candidate_header(plan, capture.width(), capture.height());
         let summary = decode_capture(plan, capture, options, progress, |row| {
             image.take_row(&header, row)

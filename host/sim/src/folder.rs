@@ -10,27 +10,27 @@ use std::str::FromStr;
 use fsm_core::ScanPlan;
 use fsm_io::image_files::{read_tiff_f32, write_png_gray16, write_png_gray8, write_tiff_f32};
 use fsm_io::outputs::write_file;
-use fsm_io::plan_file::write_plan;
+use fsm_io::plan_file::{write_method_plan, write_plan, MethodPlan};
 use fsm_io::{Error, Result};
 
 use crate::target::{self, BoardPose};
-use crate::{Capture, Scene, Sensor, System, TransportSettings};
+use crate::{Capture, PatternSequence, Scene, Sensor, System, TransportSettings};
 
 /// A scene's folder: `plan.toml`, `calibration.toml`, `scan.dump` (or `images/0000.png…`
 /// with `images`), and `truth/` ([`write_truth`]). `dir` exists.
 pub fn write_scene(
     dir: &Path,
-    plan: &ScanPlan,
+    plan: &MethodPlan,
     system: &System,
     capture: &Capture,
     images: bool,
 ) -> Result<()> {
-    write_plan(plan, &dir.join("plan.toml"))?;
+    write_method_plan(plan, &dir.join("plan.toml"))?;
     write_calibration(system, &dir.join("calibration.toml"))?;
     if images {
         let images = dir.join("images");
         std::fs::create_dir(&images).map_err(|e| Error::io(&images, e))?;
-        write_stack(capture, plan, &images)?;
+        write_stack(capture, &images)?;
     } else {
         capture
             .write_row_dump_file(&dir.join("scan.dump"))
@@ -179,7 +179,7 @@ impl FromStr for BoardPlacement {
 /// and a capture of `plan` over it.
 pub fn capture_of(
     scene: &Scene,
-    plan: &ScanPlan,
+    plan: &(impl PatternSequence + ?Sized),
     system: &System,
     seed: u64,
     supersampling: u32,
@@ -266,7 +266,7 @@ pub fn write_board_pose(
     let capture = capture_of(&scene, plan, system, seed, supersampling)?;
     write_plan(plan, &dir.join("plan.toml"))?;
     write_calibration(system, &dir.join("calibration.toml"))?;
-    write_stack(&capture, plan, dir)?;
+    write_stack(&capture, dir)?;
     let truth = dir.join("truth");
     write_truth(&capture, &truth)?;
     let json = corners_json(system, board, &pose, placement);
@@ -339,9 +339,9 @@ pub fn corners_json(
 
 /// One 16-bit PNG per frame in `dir` (which exists), numbered in sequence order like the
 /// patterns.
-pub fn write_stack(capture: &Capture, plan: &ScanPlan, dir: &Path) -> Result<()> {
+pub fn write_stack(capture: &Capture, dir: &Path) -> Result<()> {
     let (w, h) = (capture.width() as usize, capture.height() as usize);
-    let frames = plan.sequence_len();
+    let frames = capture.frame_count();
     let mut images = vec![0u16; frames * w * h];
     for y in 0..h {
         let row = capture.row(y as u32).map_err(Error::from)?;

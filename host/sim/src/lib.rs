@@ -85,7 +85,7 @@ impl Scene {
 /// settings) and returns a capture that renders rows on demand. To capture several plans of
 /// one scene, compute the [`LightTransport`] once and build each [`Capture`] from it.
 pub fn simulate(
-    patterns: &impl PatternSequence,
+    patterns: &(impl PatternSequence + ?Sized),
     scene: &Scene,
     system: &System,
     sensor: &Sensor,
@@ -103,7 +103,7 @@ pub fn simulate(
 
 /// [`simulate`] with the light transport's `settings` (e.g. more rays per pixel).
 pub fn simulate_with(
-    patterns: &impl PatternSequence,
+    patterns: &(impl PatternSequence + ?Sized),
     scene: &Scene,
     system: &System,
     sensor: &Sensor,

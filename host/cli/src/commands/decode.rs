@@ -27,7 +27,8 @@ use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Scan-plan file the capture was made with.
+    /// Plan file the capture was made with: FSM's, or a method FSM is compared with
+    /// (`fsm plan --method`).
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
     #[command(flatten)]
@@ -47,13 +48,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = super::load_plan(&args.plan)?;
+    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
     let capture = args
         .source
-        .open(&plan, &args.bit_depth, args.bad_rows.policy())?;
+        .open(plan, &args.bit_depth, args.bad_rows.policy())?;
     let options = args.decode.options();
     let summary = decode::decode_to_dir(
-        &plan,
+        plan,
         &capture,
         &args.out,
         args.force,

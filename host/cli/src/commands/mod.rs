@@ -139,7 +139,7 @@ impl CaptureSource {
     /// Opens and checks the capture against `plan` (before any work).
     pub fn open(
         &self,
-        plan: &ScanPlan,
+        plan: impl Into<fsm_io::plan_file::MethodPlan>,
         bit_depth: &BitDepth,
         bad_rows: BadRows,
     ) -> Result<Capture> {

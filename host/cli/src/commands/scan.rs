@@ -39,7 +39,8 @@ use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Scan-plan file the capture was made with.
+    /// Plan file the capture was made with: FSM's, or a method FSM is compared with
+    /// (`fsm plan --method`).
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
     /// Calibration file of the camera-projector pair (TOML).
@@ -136,20 +137,20 @@ pub fn load_calibration(path: &std::path::Path) -> Result<Calibration> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = super::load_plan(&args.plan)?;
+    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
     let calibration = load_calibration(&args.calibration)?;
-    if calibration.projector_columns() != plan.projector_columns as u32 {
+    let plan_columns = plan.patterns().projector_columns();
+    if calibration.projector_columns() != plan_columns as u32 {
         return Err(Error::Usage(format!(
-            "{}: the projector has {} columns, the plan {} addresses {}",
+            "{}: the projector has {} columns, the plan {} addresses {plan_columns}",
             args.calibration.display(),
             calibration.projector_columns(),
             args.plan.display(),
-            plan.projector_columns
         )));
     }
     let capture = args
         .source
-        .open(&plan, &args.bit_depth, args.bad_rows.policy())?;
+        .open(plan, &args.bit_depth, args.bad_rows.policy())?;
     let camera = &calibration.camera;
     if (camera.width_px(), camera.height_px()) != (capture.width(), capture.height()) {
         return Err(Error::Usage(format!(
@@ -174,14 +175,11 @@ pub fn run(args: Args) -> Result<()> {
     let options = args.decode.options();
     let started = Instant::now();
     let (decoded, decode_summary) =
-        DecodedImage::decode_capture(&plan, &capture, &options, &Progress::stderr())?;
+        DecodedImage::decode_capture(plan, &capture, &options, &Progress::stderr())?;
     let decode_seconds = started.elapsed().as_secs_f64();
     let params = args.selection.params(&calibration);
     let (surface, times) = Surface::reconstruct(&decoded, &calibration, &params);
-    let method = match plan.method {
-        fsm_core::Method::Bfsm => "BFSM",
-        fsm_core::Method::Efsm(_) => "EFSM",
-    };
+    let method = plan.name();
     let seconds = StageSeconds {
         decode: decode_seconds,
         triangulate: times.triangulate_seconds,

@@ -5,9 +5,8 @@
 use std::path::PathBuf;
 
 use fsm_calibrate::board::Checkerboard;
-use fsm_core::ScanPlan;
 use fsm_io::outputs::{write_file, StagedDir};
-use fsm_io::plan_file::Preset;
+use fsm_io::plan_file::{MethodPlan, Preset};
 use fsm_io::{Error, Result};
 use fsm_sim::folder::{self, BoardPlacement, SPREAD};
 use fsm_sim::scene::presets::NAMES;
@@ -148,7 +147,13 @@ pub fn run(args: Args) -> Result<()> {
     let scene = Scene::by_name(&args.scene).map_err(Error::from)?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     let staged = StagedDir::create(&args.out, args.force)?;
-    let capture = folder::capture_of(&scene, &plan, &system, args.seed, args.supersampling)?;
+    let capture = folder::capture_of(
+        &scene,
+        plan.patterns(),
+        &system,
+        args.seed,
+        args.supersampling,
+    )?;
     folder::write_scene(staged.path(), &plan, &system, &capture, args.images)?;
     let out = staged.commit()?;
     eprintln!(
@@ -166,15 +171,15 @@ pub fn run(args: Args) -> Result<()> {
 /// The plan of `--plan` (as it is), or of `--preset` (or `default`, a preset name) stating
 /// the simulated camera's sensor as its datasheet would (`decoding.sensor`: the cosine search
 /// sets its threshold from it), else an error.
-fn plan_of(args: &Args, default: Option<&str>) -> Result<ScanPlan> {
+fn plan_of(args: &Args, default: Option<&str>) -> Result<MethodPlan> {
     Ok(match (&args.plan, args.preset.as_deref().or(default)) {
-        (Some(path), _) => super::load_plan(path)?,
+        (Some(path), _) => fsm_io::plan_file::read_method_plan(path)?,
         (None, Some(name)) => {
             let mut plan = Preset::from_name(name)
                 .expect("clap checked the name")
                 .plan();
             plan.decoding.sensor = Sensor::default().datasheet();
-            plan
+            MethodPlan::Fsm(plan)
         }
         (None, None) => {
             return Err(Error::Usage(format!(
@@ -185,7 +190,6 @@ fn plan_of(args: &Args, default: Option<&str>) -> Result<ScanPlan> {
     })
 }
 
-/// `--scene checkerboard`: one pose folder (`--board-pose`) or `--board-poses` of them.
 fn run_board(args: Args) -> Result<()> {
     let sim_board = match &args.board {
         Some(path) => {
@@ -194,7 +198,13 @@ fn run_board(args: Args) -> Result<()> {
         None => PrintedBoard::bench(),
     };
     let board = sim_board.grid;
-    let plan = plan_of(&args, Some(BOARD_PRESET))?;
+    // The board's scans are decoded for calibration, which takes FSM plans.
+    let plan = plan_of(&args, Some(BOARD_PRESET))?
+        .fsm()
+        .map_err(|source| Error::PlanFile {
+            path: args.plan.clone().unwrap_or_default(),
+            source,
+        })?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     // (label for messages, sub-folder or None for the output folder itself, placement)
     type Poses = Vec<(String, Option<String>, BoardPlacement)>;

@@ -149,21 +149,121 @@ fn patterns_of_every_method_show_what_the_method_projects() {
 }
 
 #[test]
-fn commands_that_decode_fsm_say_a_baseline_plan_is_not_theirs() {
+fn commands_that_take_fsm_plans_say_a_baseline_plan_is_not_theirs() {
+    // `fsm inspect` draws FSM spectra and profiles; a line-scan plan is refused by name
+    // before the capture is opened.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     plan(d, "line-scan", &[]);
     let e = fails(&[
-        "decode",
+        "inspect",
         "--plan",
         s(&d.join("line-scan.toml")),
         "--images",
         s(d),
+        "--pixel",
+        "1,1",
         "--out",
-        s(&d.join("out.cand")),
+        s(&d.join("pixel.png")),
     ]);
     assert!(
         e.contains("line-scan.toml") && e.contains("line_scan plan"),
         "{e}"
     );
+}
+
+#[test]
+fn every_method_goes_plan_simulate_decode_scan() {
+    // The simulator's bench projector has 768 columns: each method's plan for it, a plane
+    // captured with it, decoded to candidates and scanned to points, scored by the truth. At
+    // 128 x 96 a camera pixel sees about 6 columns (fsm demo's smallest camera).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for method in ["bfsm", "phase-shift", "micro-phase-shift", "line-scan"] {
+        let plan = d.join(format!("{method}.toml"));
+        ok(&[
+            "plan",
+            "--method",
+            method,
+            "--projector-columns",
+            "768",
+            "--out",
+            s(&plan),
+        ]);
+        let sim = d.join(format!("{method}-sim"));
+        ok_stderr(&[
+            "simulate",
+            "--scene",
+            "plane",
+            "--plan",
+            s(&plan),
+            "--camera",
+            "128x96",
+            "--out",
+            s(&sim),
+        ]);
+        let frames = read_method_plan(&plan).unwrap().patterns().frame_count();
+        // The dump carries the plan's fingerprint; its decode is a candidate file.
+        let decoded = d.join(format!("{method}-decoded"));
+        let said = ok_stderr(&[
+            "decode",
+            "--plan",
+            s(&plan),
+            "--dump",
+            s(&sim.join("scan.dump")),
+            "--out",
+            s(&decoded),
+        ]);
+        assert!(said.contains("decoded"), "{method}: {said}");
+        assert!(decoded.join("candidates.fsmc").is_file(), "{method}");
+        let scan = d.join(format!("{method}-scan"));
+        ok_stderr(&[
+            "scan",
+            "--plan",
+            s(&plan),
+            "--calibration",
+            s(&sim.join("calibration.toml")),
+            "--dump",
+            s(&sim.join("scan.dump")),
+            "--truth",
+            s(&sim.join("truth")),
+            "--out",
+            s(&scan),
+        ]);
+        let summary: serde_json::Value =
+            serde_json::from_slice(&fs::read(scan.join("summary.json")).unwrap()).unwrap();
+        let truth = &summary["truth"];
+        let (wrong, completeness) = (
+            truth["wrong_share"].as_f64().unwrap(),
+            truth["completeness"].as_f64().unwrap(),
+        );
+        println!(
+            "{method} ({frames} frames): {} points, {:.2}% wrong, {:.2}% of the lit pixels right",
+            summary["points"],
+            100.0 * wrong,
+            100.0 * completeness
+        );
+        assert!(wrong <= 0.01, "{method}: {summary}");
+        assert!(completeness >= 0.95, "{method}: {summary}");
+        // Another method's plan does not decode this capture.
+        let other = if method == "line-scan" {
+            "bfsm"
+        } else {
+            "line-scan"
+        };
+        let e = fails(&[
+            "scan",
+            "--plan",
+            s(&d.join(format!("{other}.toml"))),
+            "--calibration",
+            s(&sim.join("calibration.toml")),
+            "--dump",
+            s(&sim.join("scan.dump")),
+            "--out",
+            s(&d.join("never")),
+        ]);
+        if d.join(format!("{other}.toml")).exists() {
+            assert!(e.contains("fingerprint") || e.contains("plan"), "{e}");
+        }
+    }
 }
