@@ -370,6 +370,33 @@ fn is_empty_dir(path: &Path) -> Result<bool> {
     Ok(fs::read_dir(path).at(path)?.next().is_none())
 }
 
+/// Checks, before any work, that a single-file output may be written at `target`: the rule
+/// of the output folders ([`StagedDir::create`]) for files. An existing file is refused unless
+/// `replace` (`--force`), a folder always, and a missing parent folder is named.
+pub fn check_file_target(target: &Path, replace: bool) -> Result<()> {
+    let parent = parent_of(target);
+    if !parent.is_dir() {
+        return Err(Error::Usage(format!(
+            "{}: its folder {} does not exist (create it first)",
+            target.display(),
+            parent.display()
+        )));
+    }
+    match fs::metadata(target) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(Error::io(target, e)),
+        Ok(m) if m.is_dir() => Err(Error::Usage(format!(
+            "{}: is a folder, not a file",
+            target.display()
+        ))),
+        Ok(_) if replace => Ok(()),
+        Ok(_) => Err(Error::Usage(format!(
+            "{}: file exists (choose another name, or --force to replace it)",
+            target.display()
+        ))),
+    }
+}
+
 fn check_target(target: &Path, replace: bool) -> Result<()> {
     match fs::metadata(target) {
         Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),

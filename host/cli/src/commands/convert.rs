@@ -29,11 +29,15 @@ pub struct Args {
     /// Output dump file.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    force: bool,
     #[command(flatten)]
     memory: MemoryBudget,
 }
 
 pub fn run(args: Args) -> Result<()> {
+    fsm_io::outputs::check_file_target(&args.out, args.force)?;
     let plan = super::load_plan(&args.plan)?;
     let Capture::Stack(stack) = Capture::open_stack(&args.images, &plan, args.bit_depth.bit_depth)?
     else {

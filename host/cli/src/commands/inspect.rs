@@ -43,9 +43,13 @@ pub struct Args {
     /// Output picture (PNG).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    force: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
+    fsm_io::outputs::check_file_target(&args.out, args.force)?;
     let plan = super::load_plan(&args.plan)?;
     let capture = args.source.open(&plan, &args.bit_depth, BadRows::Refuse)?;
     if let Some((x, y)) = args.pixel {

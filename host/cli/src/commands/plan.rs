@@ -57,6 +57,9 @@ pub struct Args {
     /// Write the plan here (.toml or .json); without it the plan is printed.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
+    /// Replace the --out or --wire file if it exists.
+    #[arg(long)]
+    force: bool,
     /// Check a plan file: print what it describes, or the first field that is wrong.
     #[arg(long, value_name = "FILE")]
     check: Option<PathBuf>,
@@ -137,6 +140,9 @@ enum Syntax {
 
 pub fn run(args: Args) -> Result<()> {
     if let Some(path) = &args.check {
+        if let Some(wire) = &args.wire {
+            fsm_io::outputs::check_file_target(wire, args.force)?;
+        }
         let plan = plan_file::read_method_plan(path)?;
         println!("{}: valid plan", path.display());
         print_summary(&plan);
@@ -166,6 +172,9 @@ pub fn run(args: Args) -> Result<()> {
             ))
         }
     };
+    for path in [&args.out, &args.wire].into_iter().flatten() {
+        fsm_io::outputs::check_file_target(path, args.force)?;
+    }
     let mut settings = Vec::new();
     for s in &args.settings {
         settings.push(

@@ -164,6 +164,7 @@ fn inspect_draws_a_pixel_and_a_row() {
         "768,0",
         "--out",
         s(&pixel_png),
+        "--force",
     ]);
     assert!(e.contains("pixel (768, 0) is outside"), "{e}");
 }

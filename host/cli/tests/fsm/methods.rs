@@ -33,8 +33,9 @@ fn every_method_derives_its_plan_from_the_projector_width() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // BFSM: one fringe per column of this projector, not the paper's 768.
-    assert_eq!(plan(d, "bfsm", &[]), MethodPlan::Fsm(ScanPlan::bfsm(256)));
-    let MethodPlan::Fsm(bfsm) = plan(d, "bfsm", &[]) else {
+    let bfsm = plan(d, "bfsm", &[]);
+    assert_eq!(bfsm, MethodPlan::Fsm(ScanPlan::bfsm(256)));
+    let MethodPlan::Fsm(bfsm) = bfsm else {
         unreachable!()
     };
     assert_eq!((bfsm.band.count, bfsm.band.period_columns), (256, 512));
@@ -266,4 +267,35 @@ fn every_method_goes_plan_simulate_decode_scan() {
             assert!(e.contains("fingerprint") || e.contains("plan"), "{e}");
         }
     }
+}
+
+#[test]
+fn single_file_outputs_follow_the_folders_rule() {
+    // An existing file is kept unless --force, a missing parent folder is named, and the
+    // command does no work first.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("plan.toml");
+    fs::write(&out, "mine").unwrap();
+    let e = fails(&["plan", "--preset", "paper-bfsm", "--out", s(&out)]);
+    assert!(e.contains("plan.toml") && e.contains("--force"), "{e}");
+    assert_eq!(fs::read_to_string(&out).unwrap(), "mine");
+    ok(&[
+        "plan",
+        "--preset",
+        "paper-bfsm",
+        "--out",
+        s(&out),
+        "--force",
+    ]);
+    assert!(read_method_plan(&out).is_ok());
+    let wire = d.join("plan.bin");
+    fs::write(&wire, "mine").unwrap();
+    let e = fails(&["plan", "--check", s(&out), "--wire", s(&wire)]);
+    assert!(e.contains("plan.bin") && e.contains("--force"), "{e}");
+    let nested = d.join("missing/plan.toml");
+    let e = fails(&["plan", "--preset", "paper-bfsm", "--out", s(&nested)]);
+    assert!(e.contains("missing") && e.contains("does not exist"), "{e}");
+    let e = fails(&["plan", "--preset", "paper-bfsm", "--out", s(d)]);
+    assert!(e.contains("is a folder"), "{e}");
 }

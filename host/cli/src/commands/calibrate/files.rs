@@ -107,6 +107,9 @@ pub struct ImportArgs {
     /// Our calibration file to write (TOML).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    force: bool,
     /// Camera image size, pixels (required unless the file has it: SLStudio's
     /// frameWidth/frameHeight, procam's img_shape).
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
@@ -139,6 +142,9 @@ pub struct ExportArgs {
     /// The file to write (.yml, .yaml or .xml).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    force: bool,
     /// Unit of the written translation.
     #[arg(long, value_enum, default_value = "mm")]
     unit: Unit,
@@ -159,6 +165,7 @@ pub fn import(args: ImportArgs) -> Result<()> {
             args.out.display()
         )));
     }
+    fsm_io::outputs::check_file_target(&args.out, args.force)?;
     let options = ImportOptions {
         camera_size: args.camera_size,
         projector_size: args.projector_size,
@@ -206,6 +213,7 @@ pub fn export(args: ExportArgs) -> Result<()> {
             args.out.display()
         )));
     }
+    fsm_io::outputs::check_file_target(&args.out, args.force)?;
     let calibration =
         Calibration::read(&args.calibration).map_err(|e| Error::Usage(e.to_string()))?;
     let tool = args.format.tool();

@@ -59,7 +59,8 @@ pub struct Args {
     /// Write TIFF instead of PNG (--write-patterns).
     #[arg(long)]
     tiff: bool,
-    /// Replace the --write-patterns folder if it exists and is not empty.
+    /// Replace the --write-patterns folder if it exists and is not empty, or the --out file if
+    /// it exists.
     #[arg(long)]
     force: bool,
     /// Folder of the captures, numbered like the grey-level images (PNG or TIFF, 8- or 16-bit
@@ -113,6 +114,9 @@ struct Report<'a> {
 
 /// Runs `fsm calibrate response`.
 pub fn run(args: Args) -> Result<()> {
+    if let Some(out) = &args.out {
+        fsm_io::outputs::check_file_target(out, args.force)?;
+    }
     if let Some(out) = &args.write_patterns {
         return write_patterns(&args, out);
     }

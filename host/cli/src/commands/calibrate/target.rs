@@ -64,6 +64,9 @@ pub struct Args {
     /// Calibration file to write.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+    /// Replace the --out and --report files if they exist.
+    #[arg(long)]
+    force: bool,
     /// JSON report to write.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -107,6 +110,9 @@ pub struct Args {
 
 /// Runs `fsm calibrate target`.
 pub fn run(args: Args) -> Result<()> {
+    for path in std::iter::once(&args.out).chain(&args.report) {
+        fsm_io::outputs::check_file_target(path, args.force)?;
+    }
     let board = Checkerboard::read(&args.board).map_err(|e| Error::Usage(e.to_string()))?;
     let plan = super::super::load_plan(&args.plan)?;
     if args.poses.len() < fsm_calibrate::zhang::MIN_POSES {
