@@ -4,10 +4,10 @@
 use std::path::Path;
 
 use fsm_core::PixelCandidates;
-use plotters::prelude::{ColorMap, ViridisRGB};
 
 use crate::error::{Error, Result};
 use crate::image_files;
+use crate::map_picture::{write_map_png, Palette, Scale};
 use crate::outputs::StagedFile;
 
 /// File name of the float map in `fsm decode`'s output folder.
@@ -79,37 +79,15 @@ impl ColumnMap {
         file.commit()
     }
 
-    /// Colour preview: viridis from column 0 (dark blue) to `projector_columns − 1` (yellow),
-    /// black where there is no candidate.
-    pub fn preview_rgb(&self, projector_columns: u16) -> Vec<u8> {
-        viridis_rgb(&self.columns, 0.0, (projector_columns.max(2) - 1) as f32)
-    }
-
-    /// Writes the colour preview PNG, whole or not at all.
+    /// Writes the colour preview PNG with its colour bar (projector columns), whole or not
+    /// at all.
     pub fn write_preview(&self, path: &Path, projector_columns: u16) -> Result<()> {
-        let mut file = StagedFile::create(path)?;
-        let rgb = self.preview_rgb(projector_columns);
-        image_files::write_png_rgb8(file.writer(), self.width, self.height, &rgb).map_err(|e| {
-            Error::Encode {
-                path: path.to_path_buf(),
-                message: e.0,
-            }
-        })?;
-        file.commit()
+        let scale = Scale {
+            low: 0.0,
+            high: (projector_columns.max(2) - 1) as f32,
+            unit: "column",
+            palette: Palette::Viridis,
+        };
+        write_map_png(path, &self.columns, self.width, self.height, &scale)
     }
-}
-
-/// RGB bytes of `values` coloured by viridis from `low` (dark blue) to `high` (yellow), values
-/// outside clamped, black where a value is not finite.
-pub fn viridis_rgb(values: &[f32], low: f32, high: f32) -> Vec<u8> {
-    let mut rgb = Vec::with_capacity(values.len() * 3);
-    for &v in values {
-        if v.is_finite() {
-            let color = ViridisRGB.get_color_normalized(v.clamp(low, high), low, high);
-            rgb.extend_from_slice(&[color.0, color.1, color.2]);
-        } else {
-            rgb.extend_from_slice(&[0, 0, 0]);
-        }
-    }
-    rgb
 }

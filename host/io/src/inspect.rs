@@ -11,7 +11,6 @@
 //! [`Decoder::decode_pixel`]); this module only draws them (`plotters`, bitmap backend, PNG).
 
 use std::path::Path;
-use std::sync::Once;
 
 use fsm_core::{Decoder, Group, Method, Row, ScanPlan};
 use plotters::coord::ReverseCoordTranslate;
@@ -22,6 +21,7 @@ use crate::candidate_file::HostCandidates;
 use crate::capture::Capture;
 use crate::error::{Error, Result};
 use crate::image_files;
+use crate::map_picture::{register_font, FONT};
 use crate::outputs::StagedFile;
 
 /// One group's view of a pixel.
@@ -260,17 +260,6 @@ pub fn inspect_row(
     )?;
     plot_row_map(plan, &map, out)?;
     Ok(map)
-}
-
-const FONT: &str = "sans-serif";
-
-/// plotters draws text with a registered font; DejaVu Sans is compiled in so that pictures
-/// need no system fonts.
-fn register_font() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
-    });
 }
 
 fn draw_error(out: &Path) -> impl Fn(String) -> Error + '_ {

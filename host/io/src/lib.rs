@@ -42,6 +42,7 @@ pub mod dump;
 pub mod error;
 pub mod image_files;
 pub mod inspect;
+pub mod map_picture;
 pub mod outputs;
 pub mod patterns;
 pub mod plan_file;

@@ -1,13 +1,13 @@
 //! What `fsm scan` writes: `points.ply` (binary little-endian: x y z mm, intensity, quality,
 //! pixel x y), `depth.tiff`, `column.tiff` and `quality.tiff` (32-bit float, NaN where none),
 //! `direct.png` and `indirect.png` (eqs. 12–13, one shared scale), `depth.png` (coloured
-//! preview) and `summary.json` (counts, pixels without a point by reason, timings,
-//! parameters).
+//! preview), each picture with a colour bar labelled in its unit (`fsm_io::map_picture`), and
+//! `summary.json` (counts, pixels without a point by reason, timings, parameters).
 
 use std::path::Path;
 
-use fsm_io::column_map::viridis_rgb;
-use fsm_io::image_files::{write_png_gray8, write_png_rgb8, write_tiff_f32};
+use fsm_io::image_files::write_tiff_f32;
+use fsm_io::map_picture::{write_map_png, Palette, Scale};
 use fsm_io::outputs::{write_file, StagedFile};
 use fsm_io::{Error, Result};
 use serde::Serialize;
@@ -191,26 +191,23 @@ pub fn write_scan(dir: &Path, surface: &Surface, summary: &ScanSummary) -> Resul
         ("direct.png", &surface.direct),
         ("indirect.png", &surface.indirect),
     ] {
-        let path = dir.join(name);
-        let grey: Vec<u8> = values
-            .iter()
-            .map(|v| (255.0 * v / scale).round().clamp(0.0, 255.0) as u8)
-            .collect();
-        let mut bytes = Vec::new();
-        write_png_gray8(&mut bytes, w, h, &grey).map_err(encode(&path))?;
-        write_file(&path, &bytes)?;
+        let light = Scale {
+            low: 0.0,
+            high: scale,
+            unit: "DN",
+            palette: Palette::Grey,
+        };
+        write_map_png(&dir.join(name), values, w, h, &light)?;
     }
+    // Depth over the surface's 1st to 99th percentile: a few outliers do not flatten it.
     let (near, far) = (percentile(&depth, 0.01), percentile(&depth, 0.99));
-    let path = dir.join("depth.png");
-    let mut bytes = Vec::new();
-    write_png_rgb8(
-        &mut bytes,
-        w,
-        h,
-        &viridis_rgb(&depth, near, far.max(near + 1e-3)),
-    )
-    .map_err(encode(&path))?;
-    write_file(&path, &bytes)?;
+    let depth_scale = Scale {
+        low: near,
+        high: far.max(near + 1e-3),
+        unit: "depth, mm",
+        palette: Palette::Viridis,
+    };
+    write_map_png(&dir.join("depth.png"), &depth, w, h, &depth_scale)?;
     let json = serde_json::to_vec_pretty(summary)
         .map_err(|e| Error::Usage(format!("summary.json: {e}")))?;
     write_file(&dir.join("summary.json"), &json)

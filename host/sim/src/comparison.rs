@@ -11,8 +11,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use fsm_core::{GroupCount, LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
-use fsm_io::column_map::viridis_rgb;
-use fsm_io::image_files::{write_png_gray8, write_png_rgb8};
+use fsm_io::image_files::write_png_gray8;
+use fsm_io::map_picture::{write_map_png, Palette, Scale};
 use fsm_io::outputs::write_file;
 use fsm_io::{Error, Result};
 use fsm_scan::decoded::{DecodedImage, Method};
@@ -381,8 +381,8 @@ fn glossy_figures(
     })
 }
 
-/// `|decoded − true column|` per pixel, viridis from 0 to 1 column, black where either is
-/// missing.
+/// `|decoded − true column|` per pixel, viridis from 0 to 1 column with its colour bar,
+/// black where either is missing.
 fn write_column_error(
     path: &Path,
     w: usize,
@@ -399,18 +399,13 @@ fn write_column_error(
             _ => f32::NAN,
         })
         .collect();
-    let mut bytes = Vec::new();
-    write_png_rgb8(
-        &mut bytes,
-        w as u32,
-        h as u32,
-        &viridis_rgb(&errors, 0.0, 1.0),
-    )
-    .map_err(|e| Error::Encode {
-        path: path.to_path_buf(),
-        message: e.0,
-    })?;
-    write_file(path, &bytes)
+    let scale = Scale {
+        low: 0.0,
+        high: 1.0,
+        unit: "column error",
+        palette: Palette::Viridis,
+    };
+    write_map_png(path, &errors, w as u32, h as u32, &scale)
 }
 
 /// `report.md`: the tables of `report` and its pictures (paths relative to the output folder).

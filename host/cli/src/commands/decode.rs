@@ -16,7 +16,7 @@ use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 ///   candidates.fsmc  every candidate of every pixel (column, amplitude, EFSM block and group),
 ///                    one CRC-protected record per camera row (format: README, "Candidate files")
 ///   column.tiff      32-bit float: each pixel's strongest candidate column, NaN where none
-///   column.png       colour preview of column.tiff (black: no candidate)
+///   column.png       colour preview of column.tiff (black: no candidate), with its colour bar
 ///
 /// The capture is checked against the plan before any work; the folder appears whole or not
 /// at all.

@@ -29,8 +29,8 @@ use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 ///   points.ply                 binary PLY: x y z (mm, camera frame), intensity, quality, pixel x y
 ///   depth.tiff, column.tiff    32-bit float per pixel, NaN where none
 ///   quality.tiff               32-bit float per pixel: the point's signal-to-noise ratio
-///   direct.png, indirect.png   direct and indirect light (paper eqs. 12-13), one scale
-///   depth.png                  coloured depth preview (black: no point)
+///   direct.png, indirect.png   direct and indirect light (paper eqs. 12-13), one scale (DN bar)
+///   depth.png                  coloured depth, 1st-99th percentile (mm bar; black: no point)
 ///   summary.json               counts (pixels without a point by reason), timings, parameters
 ///
 /// Examples:
