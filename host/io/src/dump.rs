@@ -13,7 +13,6 @@ use std::path::{Path, PathBuf};
 
 use fsm_core::wire::row_dump::{self, RowDumpHeader};
 use fsm_core::wire::{WireError, HEADER_LEN};
-use fsm_core::ScanPlan;
 
 use crate::error::{Error, Wire};
 use crate::outputs::StagedFile;
@@ -580,13 +579,20 @@ pub fn band_rows(budget_bytes: u64, row_bytes: u64, height: u32) -> u32 {
 /// Converts a stack into a dump file (`fsm convert`), band by band within `budget_bytes`,
 /// records in row order; the file appears whole or not at all.
 pub fn write_dump_from_stack(
-    plan: &ScanPlan,
+    plan: impl Into<crate::plan_file::MethodPlan>,
     stack: &Stack,
     out: &Path,
     budget_bytes: u64,
     progress: &Progress,
 ) -> Result<RowDumpHeader, Error> {
-    let header = RowDumpHeader::for_plan(plan, stack.width(), stack.height(), stack.bit_depth());
+    let plan = plan.into();
+    let header = RowDumpHeader {
+        bit_depth: stack.bit_depth(),
+        plan_fingerprint: plan.fingerprint(),
+        width: stack.width(),
+        height: stack.height(),
+        frames: plan.frame_count() as u32,
+    };
     let mut file = StagedFile::create(out)?;
     let io = |e| Error::io(out, e);
     let mut writer = DumpWriter::new(file.writer(), header).map_err(io)?;

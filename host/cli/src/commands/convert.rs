@@ -18,7 +18,7 @@ use super::{BitDepth, MemoryBudget};
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Scan-plan file the images were captured with.
+    /// Plan file the images were captured with, of any method.
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
     /// Folder of captured images (0000.png, 0001.png, …).
@@ -38,13 +38,13 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     fsm_io::outputs::check_file_target(&args.out, args.force)?;
-    let plan = super::load_plan(&args.plan)?;
-    let Capture::Stack(stack) = Capture::open_stack(&args.images, &plan, args.bit_depth.bit_depth)?
+    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
+    let Capture::Stack(stack) = Capture::open_stack(&args.images, plan, args.bit_depth.bit_depth)?
     else {
         unreachable!("open_stack returns a stack")
     };
     let header = dump::write_dump_from_stack(
-        &plan,
+        plan,
         &stack,
         &args.out,
         args.memory.bytes(),

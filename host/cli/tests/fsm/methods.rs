@@ -299,3 +299,54 @@ fn single_file_outputs_follow_the_folders_rule() {
     let e = fails(&["plan", "--preset", "paper-bfsm", "--out", s(d)]);
     assert!(e.contains("is a folder"), "{e}");
 }
+
+#[test]
+fn a_baselines_image_stack_converts_and_decodes_like_its_dump() {
+    // Phase shift (15 frames): captured as images, converted to a dump, both decoded.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let plan = d.join("ps.toml");
+    ok(&[
+        "plan",
+        "--method",
+        "phase-shift",
+        "--projector-columns",
+        "768",
+        "--out",
+        s(&plan),
+    ]);
+    let sim = d.join("sim");
+    ok_stderr(&[
+        "simulate",
+        "--scene",
+        "plane",
+        "--plan",
+        s(&plan),
+        "--camera",
+        "64x48",
+        "--images",
+        "--out",
+        s(&sim),
+    ]);
+    let dump = d.join("converted.dump");
+    ok_stderr(&[
+        "convert",
+        "--plan",
+        s(&plan),
+        "--images",
+        s(&sim.join("images")),
+        "--out",
+        s(&dump),
+    ]);
+    let decode = |source: &[&str], out: &str| {
+        let out = d.join(out);
+        let mut args = vec!["decode", "--plan", s(&plan), "--out", s(&out)];
+        args.extend(source);
+        ok_stderr(&args);
+        fs::read(out.join("candidates.fsmc")).unwrap()
+    };
+    let from_images = decode(&["--images", s(&sim.join("images"))], "from-images");
+    let from_dump = decode(&["--dump", s(&dump)], "from-dump");
+    assert!(from_images.len() > 1000);
+    assert_eq!(from_images, from_dump);
+}
