@@ -234,10 +234,15 @@ fn mps_codes_of_distinct_columns_stay_apart() {
     let narrow = closest_codes(&MicroPhaseShiftPlan::spread(768, 16.0, 2.0, 15));
     println!("15-17 columns: {narrow:.3}");
     assert!(narrow < 0.5 * closest, "{narrow}");
+    // `fsm plan --method micro-phase-shift` keeps the set for other projectors: its codes stay
+    // apart up to a 1920-column one.
+    let wide = closest_codes(&MicroPhaseShiftPlan::spread(1920, 16.0, 4.0, 15));
+    println!("14-18 columns on 1920 columns: {wide:.3}");
+    assert!(wide > 0.5, "{wide}");
 }
 
 /// The smallest distance between the codes of two columns of `plan` more than 1.5 apart, over
-/// quarter columns.
+/// half columns.
 fn closest_codes(plan: &MicroPhaseShiftPlan) -> f64 {
     let periods: Vec<f64> = plan.periods().iter().map(|&p| p as f64).collect();
     let code = |c: f64| -> Vec<f64> {
@@ -248,11 +253,11 @@ fn closest_codes(plan: &MicroPhaseShiftPlan) -> f64 {
         v.push((std::f64::consts::TAU * c / periods[0]).sin());
         v
     };
-    let n = 4 * plan.projector_columns as usize;
-    let codes: Vec<Vec<f64>> = (0..n).map(|i| code(i as f64 / 4.0)).collect();
+    let n = 2 * plan.projector_columns as usize;
+    let codes: Vec<Vec<f64>> = (0..n).map(|i| code(i as f64 / 2.0)).collect();
     let mut closest = f64::INFINITY;
     for i in 0..n {
-        for j in i + 7..n {
+        for j in i + 4..n {
             let d: f64 = codes[i]
                 .iter()
                 .zip(&codes[j])
