@@ -52,10 +52,10 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
     groups: u8,
     /// Override a field: KEY=VALUE (repeatable); the result is validated.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
+    #[arg(long = "set", value_name = "KEY=VALUE", conflicts_with = "check")]
     settings: Vec<String>,
     /// Write the plan here (.toml or .json); without it the plan is printed.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "check")]
     out: Option<PathBuf>,
     /// Replace the --out or --wire file if it exists.
     #[arg(long)]
