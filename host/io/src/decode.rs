@@ -304,7 +304,9 @@ fn row_without_data(header: &CandidateHeader, row: u32, width: u32) -> Result<De
 enum RowDecoder<'t> {
     /// The decoder (boxed: 10 times a baseline's plan) and its scratch length.
     Fsm(Box<Decoder<'t>>, usize),
-    Baseline(MethodPlan),
+    PhaseShift(fsm_core::PhaseShiftPlan),
+    MicroPhaseShift(fsm_core::MicroPhaseShiftPlan),
+    LineScan(fsm_core::LineScanPlan),
 }
 
 impl<'t> RowDecoder<'t> {
@@ -321,14 +323,16 @@ impl<'t> RowDecoder<'t> {
                     Decoder::scratch_len(p),
                 )
             }
-            other => RowDecoder::Baseline(*other),
+            MethodPlan::PhaseShift(p) => RowDecoder::PhaseShift(*p),
+            MethodPlan::MicroPhaseShift(p) => RowDecoder::MicroPhaseShift(*p),
+            MethodPlan::LineScan(p) => RowDecoder::LineScan(*p),
         })
     }
 
     fn scratch_len(&self) -> usize {
         match self {
             RowDecoder::Fsm(_, len) => *len,
-            RowDecoder::Baseline(_) => 0,
+            _ => 0,
         }
     }
 
@@ -340,10 +344,9 @@ impl<'t> RowDecoder<'t> {
     ) -> std::result::Result<(), fsm_core::RowError> {
         match self {
             RowDecoder::Fsm(d, _) => d.decode_row(row, scratch, pixels),
-            RowDecoder::Baseline(MethodPlan::PhaseShift(p)) => p.decode_row(row, pixels),
-            RowDecoder::Baseline(MethodPlan::MicroPhaseShift(p)) => p.decode_row(row, pixels),
-            RowDecoder::Baseline(MethodPlan::LineScan(p)) => p.decode_row(row, pixels),
-            RowDecoder::Baseline(MethodPlan::Fsm(_)) => unreachable!("FSM plans decode with Fsm"),
+            RowDecoder::PhaseShift(p) => p.decode_row(row, pixels),
+            RowDecoder::MicroPhaseShift(p) => p.decode_row(row, pixels),
+            RowDecoder::LineScan(p) => p.decode_row(row, pixels),
         }
     }
 }

@@ -69,7 +69,7 @@ pub struct Args {
         value_parser = clap::builder::PossibleValuesParser::new(NAMES.iter().copied().chain([CHECKERBOARD]))
     )]
     scene: String,
-    /// Scan-plan file.
+    /// Plan file, of any method (`fsm plan --method`); a calibration board takes FSM plans.
     #[arg(long, value_name = "FILE", conflicts_with = "preset")]
     plan: Option<PathBuf>,
     /// A preset plan instead of a file: paper-bfsm, paper-efsm-1 or paper-efsm-2 (one of
@@ -190,6 +190,7 @@ fn plan_of(args: &Args, default: Option<&str>) -> Result<MethodPlan> {
     })
 }
 
+/// `--scene checkerboard`: one pose folder (`--board-pose`) or `--board-poses` of them.
 fn run_board(args: Args) -> Result<()> {
     let sim_board = match &args.board {
         Some(path) => {
