@@ -300,17 +300,23 @@ fn row_without_data(header: &CandidateHeader, row: u32, width: u32) -> Result<De
     decoded_row(header, row, &vec![pixel; width as usize])
 }
 
-/// The line decoder of a plan: the core's FSM decoder (with its tables), or a baseline's.
-enum RowDecoder<'t> {
+/// The line decoder of a plan of any method: the core's FSM decoder (with its tables), or a
+/// baseline's [`PixelDecoder`]. The one dispatch the host's pipelines share (this module's
+/// batches and fsm-scan's rows in memory).
+pub enum RowDecoder<'t> {
     /// The decoder (boxed: 10 times a baseline's plan) and its scratch length.
     Fsm(Box<Decoder<'t>>, usize),
+    /// Phase shift + Gray code.
     PhaseShift(fsm_core::PhaseShiftPlan),
+    /// Micro Phase Shifting.
     MicroPhaseShift(fsm_core::MicroPhaseShiftPlan),
+    /// Line scanning.
     LineScan(fsm_core::LineScanPlan),
 }
 
 impl<'t> RowDecoder<'t> {
-    fn new(plan: &MethodPlan, tables: &'t mut Vec<f32>) -> Result<Self> {
+    /// The decoder of `plan`; an FSM plan's tables are built in `tables`.
+    pub fn new(plan: &MethodPlan, tables: &'t mut Vec<f32>) -> Result<Self> {
         Ok(match plan {
             MethodPlan::Fsm(p) => {
                 tables.resize(Decoder::tables_len(p), 0.0);
@@ -329,14 +335,16 @@ impl<'t> RowDecoder<'t> {
         })
     }
 
-    fn scratch_len(&self) -> usize {
+    /// Floats of scratch [`RowDecoder::decode_row`] needs.
+    pub fn scratch_len(&self) -> usize {
         match self {
             RowDecoder::Fsm(_, len) => *len,
             _ => 0,
         }
     }
 
-    fn decode_row(
+    /// Decodes every pixel of `row` into `pixels`.
+    pub fn decode_row(
         &self,
         row: &Row<'_>,
         scratch: &mut [f32],

@@ -184,6 +184,16 @@ impl MethodPlan {
         }
     }
 
+    /// The noise RMS of one column of a dark pixel's light profile, sensor DN
+    /// ([`fsm_core::Decoder::dark_column_noise_dn`]): what a point's quality is measured in.
+    /// `None` where the method has no such scale (FSM's DFT searches, the baselines).
+    pub fn dark_column_noise_dn(&self, bit_depth: u8) -> Option<f32> {
+        match self {
+            MethodPlan::Fsm(p) => fsm_core::Decoder::dark_column_noise_dn(p, bit_depth),
+            _ => None,
+        }
+    }
+
     /// Frames in the sequence.
     pub fn frame_count(&self) -> usize {
         self.patterns().frame_count()

@@ -1,53 +1,18 @@
 //! The decoded candidates of every pixel of a scan, whichever method made them: captures on
 //! disk (image stacks, dump files) through the host's parallel decoding pipeline, rows in
-//! memory (a simulated camera's) row-parallel through the core's line decoders, FSM and the
-//! phase-shift baseline alike. Triangulation and selection take it from here.
+//! memory (a simulated camera's) row-parallel through the same line decoder
+//! ([`fsm_io::decode::RowDecoder`]), for a plan of any method ([`MethodPlan`]). Triangulation
+//! and selection take it from here.
 
 use fsm_core::wire::candidates::decode_record;
-use fsm_core::{
-    ColumnRange, Decoder, LineScanPlan, MicroPhaseShiftPlan, PatternSequence, PhaseShiftPlan,
-    PixelDecoder, Row, ScanPlan,
-};
+use fsm_core::{ColumnRange, Row};
 use fsm_io::candidate_file::HostCandidates;
 use fsm_io::capture::Capture;
-use fsm_io::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary};
+use fsm_io::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary, RowDecoder};
 use fsm_io::plan_file::MethodPlan;
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 use rayon::prelude::*;
-
-/// A decoding method and its plan.
-#[derive(Clone, Copy, Debug)]
-pub enum Method<'p> {
-    /// BFSM or EFSM.
-    Fsm(&'p ScanPlan),
-    /// The phase-shift + Gray-code baseline.
-    PhaseShift(&'p PhaseShiftPlan),
-    /// Micro Phase Shifting.
-    MicroPhaseShift(&'p MicroPhaseShiftPlan),
-    /// Line scanning.
-    LineScan(&'p LineScanPlan),
-}
-
-impl<'p> Method<'p> {
-    /// The patterns the method shows.
-    pub fn patterns(&self) -> &'p dyn PatternSequence {
-        match *self {
-            Method::Fsm(p) => p,
-            Method::PhaseShift(p) => p,
-            Method::MicroPhaseShift(p) => p,
-            Method::LineScan(p) => p,
-        }
-    }
-
-    /// The FSM plan, for the methods that have one.
-    pub fn fsm_plan(&self) -> Option<&'p ScanPlan> {
-        match *self {
-            Method::Fsm(p) => Some(p),
-            _ => None,
-        }
-    }
-}
 
 /// Candidates of every pixel of `height` rows from `first_row` on, row-major.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,7 +26,7 @@ pub struct DecodedImage {
     /// One candidate list per pixel.
     pub pixels: Vec<HostCandidates>,
     /// The noise RMS of a light profile's column at a dark pixel, sensor DN
-    /// ([`Decoder::dark_column_noise_dn`]): what a point's quality is measured in. `None`
+    /// ([`MethodPlan::dark_column_noise_dn`]): what a point's quality is measured in. `None`
     /// where the method has no such scale (DFT searches, phase shift).
     pub column_noise_dn: Option<f32>,
 }
@@ -78,10 +43,7 @@ impl DecodedImage {
         let plan: MethodPlan = plan.into();
         let (width, height) = (capture.width() as usize, capture.height() as usize);
         let mut image = DecodedImage::empty(width, height);
-        image.column_noise_dn = match &plan {
-            MethodPlan::Fsm(p) => Decoder::dark_column_noise_dn(p, capture.bit_depth()),
-            _ => None,
-        };
+        image.column_noise_dn = plan.dark_column_noise_dn(capture.bit_depth());
         let header = candidate_header(plan, capture.width(), capture.height());
         let summary = decode_capture(plan, capture, options, progress, |row| {
             image.take_row(&header, row)
@@ -93,7 +55,7 @@ impl DecodedImage {
     /// decoder's layout (`frames[i·W + x]`, the method's frame order); `limits(y)`, if given,
     /// the columns each pixel of row `y` can see (from the calibration's measurement volume).
     pub fn decode_rows(
-        method: Method<'_>,
+        plan: &MethodPlan,
         width: usize,
         rows: std::ops::Range<usize>,
         bit_depth: u8,
@@ -101,21 +63,12 @@ impl DecodedImage {
         samples: impl Fn(usize) -> Result<Vec<u16>> + Sync,
     ) -> Result<DecodedImage> {
         let mut tables = Vec::new();
-        let decoder = match method.fsm_plan() {
-            Some(plan) => {
-                tables.resize(Decoder::tables_len(plan), 0.0);
-                let decoder = Decoder::new(plan, &mut tables)
-                    .map_err(|e| Error::Usage(format!("cannot decode with this plan: {e}")))?;
-                Some(decoder)
-            }
-            None => None,
-        };
-        let scratch_len = method.fsm_plan().map_or(0, Decoder::scratch_len);
+        let decoder = RowDecoder::new(plan, &mut tables)?;
         let decoded: Vec<Vec<HostCandidates>> = rows
             .clone()
             .into_par_iter()
             .map_init(
-                || vec![0.0f32; scratch_len],
+                || vec![0.0f32; decoder.scratch_len()],
                 |scratch, y| {
                     let frames = samples(y)?;
                     let limits = limits.map(|l| l(y));
@@ -126,14 +79,9 @@ impl DecodedImage {
                         column_limits: limits.as_deref(),
                     };
                     let mut out = vec![HostCandidates::new(); width];
-                    let result = match (method, &decoder) {
-                        (Method::PhaseShift(plan), _) => plan.decode_row(&row, &mut out),
-                        (Method::MicroPhaseShift(plan), _) => plan.decode_row(&row, &mut out),
-                        (Method::LineScan(plan), _) => plan.decode_row(&row, &mut out),
-                        (Method::Fsm(_), Some(d)) => d.decode_row(&row, scratch, &mut out),
-                        (Method::Fsm(_), None) => unreachable!("an FSM decoder was built above"),
-                    };
-                    result.map_err(|e| Error::Usage(format!("row {y}: {e}")))?;
+                    decoder
+                        .decode_row(&row, scratch, &mut out)
+                        .map_err(|e| Error::Usage(format!("row {y}: {e}")))?;
                     Ok(out)
                 },
             )
@@ -143,9 +91,7 @@ impl DecodedImage {
             first_row: rows.start,
             height: rows.len(),
             pixels: decoded.into_iter().flatten().collect(),
-            column_noise_dn: method
-                .fsm_plan()
-                .and_then(|plan| Decoder::dark_column_noise_dn(plan, bit_depth)),
+            column_noise_dn: plan.dark_column_noise_dn(bit_depth),
         })
     }
 

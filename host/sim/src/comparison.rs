@@ -14,8 +14,9 @@ use fsm_core::{GroupCount, LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, Sc
 use fsm_io::image_files::write_png_gray8;
 use fsm_io::map_picture::{write_map_png, Palette, Scale};
 use fsm_io::outputs::write_file;
+use fsm_io::plan_file::MethodPlan;
 use fsm_io::{Error, Result};
-use fsm_scan::decoded::{DecodedImage, Method};
+use fsm_scan::decoded::DecodedImage;
 use fsm_scan::metrics::{compare, point_errors, Comparison, PointErrors, Truth};
 use fsm_scan::output::{write_scan, ScanSummary, StageSeconds};
 use fsm_scan::triangulate::column_limits;
@@ -50,7 +51,7 @@ pub struct Scanned {
 /// path of `fsm demo` and of the workspace's scan tests.
 pub fn scan_capture(
     capture: &Capture,
-    method: Method<'_>,
+    method: &MethodPlan,
     system: &System,
     params: &SelectionParams,
 ) -> Result<Scanned> {
@@ -194,23 +195,23 @@ impl Plans {
     }
 
     /// Every method with its name in the tables, in the report's order.
-    pub fn methods(&self) -> [(&'static str, Method<'_>); 8] {
+    pub fn methods(&self) -> [(&'static str, MethodPlan); 8] {
         [
-            ("BFSM", Method::Fsm(&self.bfsm)),
-            ("EFSM", Method::Fsm(&self.efsm)),
-            ("BFSM-CLEAN", Method::Fsm(&self.bfsm_clean)),
-            ("EFSM-CLEAN", Method::Fsm(&self.efsm_clean)),
-            ("PS", Method::PhaseShift(&self.phase_shift)),
-            ("MPS", Method::MicroPhaseShift(&self.micro_phase_shift)),
-            ("LS", Method::LineScan(&self.line_scan)),
-            ("EFSM-fast", Method::Fsm(&self.efsm_fast)),
+            ("BFSM", MethodPlan::Fsm(self.bfsm)),
+            ("EFSM", MethodPlan::Fsm(self.efsm)),
+            ("BFSM-CLEAN", MethodPlan::Fsm(self.bfsm_clean)),
+            ("EFSM-CLEAN", MethodPlan::Fsm(self.efsm_clean)),
+            ("PS", MethodPlan::PhaseShift(self.phase_shift)),
+            ("MPS", MethodPlan::MicroPhaseShift(self.micro_phase_shift)),
+            ("LS", MethodPlan::LineScan(self.line_scan)),
+            ("EFSM-fast", MethodPlan::Fsm(self.efsm_fast)),
         ]
     }
 }
 
 /// The capture of `method`'s patterns through `transport` by `sensor`.
 pub fn capture_of(
-    method: Method<'_>,
+    method: &MethodPlan,
     transport: &Arc<LightTransport>,
     system: &System,
     sensor: Sensor,
@@ -264,8 +265,8 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
         let started = Instant::now();
         let mut surfaces = Vec::new();
         for (scene, t) in &scenes {
-            let capture = capture_of(method, t, system, Sensor::default(), seed)?;
-            let scanned = scan_capture(&capture, method, system, &params)?;
+            let capture = capture_of(&method, t, system, Sensor::default(), seed)?;
+            let scanned = scan_capture(&capture, &method, system, &params)?;
             let dir = out.join(format!("{}/{scene}", name.to_lowercase()));
             std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
             let summary = ScanSummary::new(
@@ -294,7 +295,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
             &surfaces[0],
             &direct_column,
         )?;
-        let glossy = glossy_figures(method, &glossy, system, &params, seed)?;
+        let glossy = glossy_figures(&method, &glossy, system, &params, seed)?;
         let seconds = started.elapsed().as_secs_f64();
         progress(&format!(
             "{name}: {:.2}% of interreflection pixels within 0.5 column, Ed {:.4} mm, EnoI {:.4} mm, EwiI {:.4} mm ({seconds:.1} s)",
@@ -342,7 +343,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
 
 /// Scans `vgroove_glossy` with `method` and scores it against the truth.
 fn glossy_figures(
-    method: Method<'_>,
+    method: &MethodPlan,
     transport: &Arc<LightTransport>,
     system: &System,
     params: &SelectionParams,

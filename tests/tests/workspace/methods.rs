@@ -12,7 +12,7 @@ use crate::support;
 use std::ops::Range;
 
 use fsm_core::{LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
-use fsm_scan::decoded::Method;
+use fsm_io::plan_file::MethodPlan;
 use fsm_scan::SelectionParams;
 use fsm_sim::comparison::{self, Scanned};
 use fsm_sim::{PixelTruth, Sensor, System};
@@ -42,12 +42,12 @@ impl Plans {
         }
     }
 
-    fn methods(&self) -> [(&'static str, Method<'_>); 4] {
+    fn methods(&self) -> [(&'static str, MethodPlan); 4] {
         [
-            ("BFSM", Method::Fsm(&self.bfsm)),
-            ("PS", Method::PhaseShift(&self.ps)),
-            ("MPS", Method::MicroPhaseShift(&self.mps)),
-            ("LS", Method::LineScan(&self.ls)),
+            ("BFSM", MethodPlan::Fsm(self.bfsm)),
+            ("PS", MethodPlan::PhaseShift(self.ps)),
+            ("MPS", MethodPlan::MicroPhaseShift(self.mps)),
+            ("LS", MethodPlan::LineScan(self.ls)),
         ]
     }
 }
@@ -85,13 +85,13 @@ fn columns(s: &Scanned, select: impl Fn(&PixelTruth) -> bool) -> Columns {
     }
 }
 
-fn scan(scene: &str, rows: Range<u32>, method: Method<'_>, seed: u64) -> Scanned {
+fn scan(scene: &str, rows: Range<u32>, method: MethodPlan, seed: u64) -> Scanned {
     let system = System::bench();
     let t = transport(scene, &system, rows);
     let capture =
-        comparison::capture_of(method, &t, &system, Sensor::default(), seed).expect("capture");
+        comparison::capture_of(&method, &t, &system, Sensor::default(), seed).expect("capture");
     let params = SelectionParams::for_calibration(&system.calibration);
-    comparison::scan_capture(&capture, method, &system, &params).expect("the capture scans")
+    comparison::scan_capture(&capture, &method, &system, &params).expect("the capture scans")
 }
 
 #[test]
@@ -160,10 +160,10 @@ fn line_scanning_measures_pixels_that_see_six_columns() {
     let system = System::bench_with_camera(128, 96);
     let t = transport("plane_mirror_covered", &system, 20..80);
     let plans = Plans::new();
-    let method = Method::LineScan(&plans.ls);
-    let capture = comparison::capture_of(method, &t, &system, Sensor::default(), 1).unwrap();
+    let method = MethodPlan::LineScan(plans.ls);
+    let capture = comparison::capture_of(&method, &t, &system, Sensor::default(), 1).unwrap();
     let params = SelectionParams::for_calibration(&system.calibration);
-    let s = comparison::scan_capture(&capture, method, &system, &params).unwrap();
+    let s = comparison::scan_capture(&capture, &method, &system, &params).unwrap();
     let c = columns(&s, |_| true);
     println!(
         "LS at 128 x 96: {} pixels, {:.2}% with a point, {:.2}% of them within 0.5 column, column RMS {:.4}",

@@ -13,7 +13,7 @@ use std::ops::Range;
 use std::sync::Arc;
 
 use fsm_core::{GroupCount, PhaseShiftPlan, ScanPlan};
-use fsm_scan::decoded::Method;
+use fsm_io::plan_file::MethodPlan;
 use fsm_scan::metrics::Comparison;
 use fsm_scan::SelectionParams;
 use fsm_sim::comparison::{self, Scanned};
@@ -24,15 +24,15 @@ use support::transport;
 /// limits, triangulates and selects — the library path `fsm scan` and `fsm demo` take.
 fn scan(
     transport: &Arc<LightTransport>,
-    method: Method<'_>,
+    method: MethodPlan,
     system: &System,
     sensor: &Sensor,
     seed: u64,
 ) -> Scanned {
     let capture =
-        comparison::capture_of(method, transport, system, *sensor, seed).expect("capture");
+        comparison::capture_of(&method, transport, system, *sensor, seed).expect("capture");
     let params = SelectionParams::for_calibration(&system.calibration);
-    comparison::scan_capture(&capture, method, system, &params).expect("the capture scans")
+    comparison::scan_capture(&capture, &method, system, &params).expect("the capture scans")
 }
 
 /// The figures of one method: the Fig. 9 comparison of its scans with and without the
@@ -89,9 +89,9 @@ fn compare_methods(rows: Range<u32>) {
         PhaseShiftPlan::paper(),
     );
     let (bfsm, efsm, ps) = (
-        Method::Fsm(&bfsm),
-        Method::Fsm(&efsm),
-        Method::PhaseShift(&ps),
+        MethodPlan::Fsm(bfsm),
+        MethodPlan::Fsm(efsm),
+        MethodPlan::PhaseShift(ps),
     );
     let standoff_mm = 500.0;
     let sensor = Sensor::default();
@@ -264,8 +264,8 @@ fn vgroove(rows: Range<u32>) {
     let mut measured = Vec::new();
     let (bfsm, ps) = (ScanPlan::paper_bfsm(), PhaseShiftPlan::paper());
     for (name, method) in [
-        ("BFSM", Method::Fsm(&bfsm)),
-        ("PS", Method::PhaseShift(&ps)),
+        ("BFSM", MethodPlan::Fsm(bfsm)),
+        ("PS", MethodPlan::PhaseShift(ps)),
     ] {
         let s = scan(&t, method, &system, &sensor, 5);
         let (near, far) = (point_rms_mm(&s, interreflection), point_rms_mm(&s, weak));

@@ -18,7 +18,7 @@ use std::ops::Range;
 use std::sync::Arc;
 
 use fsm_core::{GroupCount, ScanPlan};
-use fsm_scan::decoded;
+use fsm_io::plan_file::MethodPlan;
 use fsm_scan::metrics::{point_errors, PointErrors};
 use fsm_scan::{NoPointCounts, SelectionParams};
 use fsm_sim::comparison::{self, Scanned};
@@ -49,7 +49,7 @@ fn scan(
         ..SelectionParams::for_calibration(&system.calibration)
     };
     let Scanned { surface, truth, .. } =
-        comparison::scan_capture(&capture, decoded::Method::Fsm(&plan), system, &params)
+        comparison::scan_capture(&capture, &MethodPlan::Fsm(plan), system, &params)
             .expect("the capture scans");
     let (truth_mm, lit) = comparison::truth_points(&truth);
     Figures {
