@@ -11,45 +11,20 @@ use crate::support;
 
 use std::ops::Range;
 
-use fsm_core::{LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
 use fsm_io::plan_file::MethodPlan;
 use fsm_scan::SelectionParams;
 use fsm_sim::comparison::{self, Scanned};
 use fsm_sim::{PixelTruth, Sensor, System};
 use support::transport;
 
-/// The methods, each plan stating the simulated sensor where it has a field for it.
-struct Plans {
-    bfsm: ScanPlan,
-    ps: PhaseShiftPlan,
-    mps: MicroPhaseShiftPlan,
-    ls: LineScanPlan,
-}
-
-impl Plans {
-    fn new() -> Plans {
-        let sensor = Sensor::default().datasheet();
-        let mut bfsm = ScanPlan::paper_bfsm();
-        bfsm.decoding.sensor = sensor;
-        Plans {
-            bfsm,
-            ps: PhaseShiftPlan::paper(),
-            mps: MicroPhaseShiftPlan::paper(),
-            ls: LineScanPlan {
-                sensor,
-                ..LineScanPlan::paper()
-            },
-        }
-    }
-
-    fn methods(&self) -> [(&'static str, MethodPlan); 4] {
-        [
-            ("BFSM", MethodPlan::Fsm(self.bfsm)),
-            ("PS", MethodPlan::PhaseShift(self.ps)),
-            ("MPS", MethodPlan::MicroPhaseShift(self.mps)),
-            ("LS", MethodPlan::LineScan(self.ls)),
-        ]
-    }
+/// `fsm demo`'s plans of the four methods compared here, in this order.
+fn methods() -> [(&'static str, MethodPlan); 4] {
+    let all = comparison::Plans::paper().methods();
+    ["BFSM", "PS", "MPS", "LS"].map(|name| {
+        *all.iter()
+            .find(|(n, _)| *n == name)
+            .expect("fsm demo compares it")
+    })
 }
 
 /// Of the directly lit pixels (away from edges): the share with a point, the share of those
@@ -96,9 +71,8 @@ fn scan(scene: &str, rows: Range<u32>, method: MethodPlan, seed: u64) -> Scanned
 
 #[test]
 fn every_method_measures_a_plane() {
-    let plans = Plans::new();
     let mut rms = Vec::new();
-    for (name, method) in plans.methods() {
+    for (name, method) in methods() {
         let c = columns(&scan("plane", 110..126, method, 7), |_| true);
         println!(
             "plane, {name:>4} ({} patterns): {} pixels, {:.2}% with a point, {:.2}% of them within 0.5 column, column RMS {:.4}",
@@ -130,9 +104,8 @@ fn every_method_measures_a_plane() {
 
 #[test]
 fn beside_a_mirror_line_scanning_keeps_the_direct_light_and_the_fringes_lose_it() {
-    let plans = Plans::new();
     let mut share = Vec::new();
-    for (name, method) in plans.methods() {
+    for (name, method) in methods() {
         let s = scan("plane_mirror", 100..140, method, 8);
         // Pixels whose mirrored light is at least a fifth of their direct light.
         let c = columns(&s, |t| t.has_interreflection(0.2));
@@ -159,8 +132,7 @@ fn line_scanning_measures_pixels_that_see_six_columns() {
     // half a column at 660 of these 5760 pixels; the centre of mass of the whole light is not.
     let system = System::bench_with_camera(128, 96);
     let t = transport("plane_mirror_covered", &system, 20..80);
-    let plans = Plans::new();
-    let method = MethodPlan::LineScan(plans.ls);
+    let [.., (_, method)] = methods();
     let capture = comparison::capture_of(&method, &t, &system, Sensor::default(), 1).unwrap();
     let params = SelectionParams::for_calibration(&system.calibration);
     let s = comparison::scan_capture(&capture, &method, &system, &params).unwrap();
