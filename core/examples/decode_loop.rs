@@ -5,8 +5,9 @@
 //! `cargo run --release -p fsm-core --example decode_loop -- bfsm|efsm1|efsm2[-fast][-shadow] [n]`
 //!
 //! `-fast`: the paper's local-maximum search without zero padding ([`ScanPlan::with_local_maxima`]).
-//! `-scalar` (last, e.g. `efsm1-scalar`): one lane at a time, as the camera decodes; the
-//! default is what `Decoder::decode_row` picks for this CPU.
+//! `-scalar` (last, e.g. `efsm1-scalar`): one lane at a time; `-lanes4`: four lanes of the
+//! build's 4-lane vector (SSE2 here), as the camera decodes with NEON; the default is what
+//! `Decoder::decode_row` picks for this CPU.
 //!
 //! Three pixels in four are lit by one column pair (1200 + 600 DN), one in four also by a second
 //! column (500 DN) elsewhere: the interreflection case. With `-shadow` (e.g. `efsm1-shadow`)
@@ -21,9 +22,10 @@ fn main() {
         Some(Some(base)) => (Some(base), true),
         _ => (name.as_deref(), false),
     };
-    let (name, scalar) = match name.map(|n| n.strip_suffix("-scalar")) {
-        Some(Some(base)) => (Some(base), true),
-        _ => (name, false),
+    let (name, lanes) = match name {
+        Some(n) if n.ends_with("-scalar") => (n.strip_suffix("-scalar"), 1),
+        Some(n) if n.ends_with("-lanes4") => (n.strip_suffix("-lanes4"), 4),
+        _ => (name, 0),
     };
     let (name, fast) = match name.map(|n| n.strip_suffix("-fast")) {
         Some(Some(base)) => (Some(base), true),
@@ -71,10 +73,10 @@ fn main() {
     let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
     let mut out = vec![PixelCandidates::<16>::new(); width];
     for _ in 0..repeats {
-        if scalar {
-            decoder.decode_row_lanes::<1, 16>(&row, &mut scratch, &mut out)
-        } else {
-            decoder.decode_row(&row, &mut scratch, &mut out)
+        match lanes {
+            1 => decoder.decode_row_lanes::<1, 16>(&row, &mut scratch, &mut out),
+            4 => decoder.decode_row_lanes::<4, 16>(&row, &mut scratch, &mut out),
+            _ => decoder.decode_row(&row, &mut scratch, &mut out),
         }
         .expect("row decodes");
     }

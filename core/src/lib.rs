@@ -41,6 +41,12 @@
 //! assert!((out[1].strongest().unwrap().column - 300.0).abs() < 0.05);
 //! ```
 #![no_std]
+// The NEON intrinsics are stable on AArch64 only; the camera's ARMv7 build (Debian's rustc with
+// `-Zbuild-std`, `firmware/scripts/build-arm.sh`) opts in. Host builds never see this line.
+#![cfg_attr(
+    all(target_arch = "arm", target_feature = "neon"),
+    feature(stdarch_arm_neon_intrinsics)
+)]
 // One audited exception: `math::sqrt` on the ARM hard-float target (one VFP instruction).
 #![deny(unsafe_code)]
 #![warn(missing_docs)]

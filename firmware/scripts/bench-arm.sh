@@ -11,7 +11,8 @@
 # For each plan it prints the firmware's BENCH lines:
 #   BENCH tables ...    building the plan's decoder tables (once per plan)
 #   BENCH loop ...      whole loop per pixel: unpack the record, decode_row, encode, write
-#   BENCH pixels ...    decode only, pixel by pixel, by the number of candidates found
+#   BENCH decode ...    the loop's decode_row_lanes alone (4 pixels per NEON register)
+#   BENCH pixels ...    decode only, pixel by pixel (one lane), by the number of candidates found
 # and checks that both passes wrote the candidates the host computes (bit-identical).
 set -euo pipefail
 

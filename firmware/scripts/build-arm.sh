@@ -63,7 +63,9 @@ unset RUSTC_WRAPPER RUSTC_WORKSPACE_WRAPPER RUSTUP_TOOLCHAIN RUSTFLAGS CARGO_ENC
 export RUSTC_BOOTSTRAP=1
 export CARGO_TARGET_ARMV7A_NONE_EABIHF_LINKER="$LLD"
 # The linker script (link.x, + defmt.x with --defmt) is added by firmware/build.rs.
-export CARGO_TARGET_ARMV7A_NONE_EABIHF_RUSTFLAGS="-C target-cpu=cortex-a9 ${FW_RUSTFLAGS:-}"
+# +neon: the Cortex-A9's Advanced SIMD unit (start.rs enables it with the VFP); the decoder
+# runs 4 pixels per NEON register (fsm_core::decoder::DEFAULT_LANES).
+export CARGO_TARGET_ARMV7A_NONE_EABIHF_RUSTFLAGS="-C target-cpu=cortex-a9 -C target-feature=+neon ${FW_RUSTFLAGS:-}"
 # Firmware-only profile tweaks (the workspace's [profile.release] stays as it is for the host).
 export CARGO_PROFILE_RELEASE_LTO="${CARGO_PROFILE_RELEASE_LTO:-fat}"
 export DEFMT_LOG="${DEFMT_LOG:-info}"

@@ -35,10 +35,11 @@ pub type Pixel = PixelCandidates<CANDIDATE_CAPACITY>;
 /// Floats of decoder tables (`Decoder::tables_len`: kernel, fit operators, window) the camera
 /// holds: 6 MiB.
 pub const MAX_TABLE_FLOATS: usize = 3 << 19;
-/// Pixels the camera decodes at once (`Decoder::decode_row_lanes`): one, since its core is a
-/// scalar VFP (NEON flushes denormals, so it would not give the host's bits). Any lane count
-/// gives the same candidates; the host decodes many at once.
-pub const LANES: usize = 1;
+/// Pixels the camera decodes at once (`Decoder::decode_row_lanes`): the 4 lanes of a NEON
+/// register on the Cortex-A9 (`fsm_core::decoder::DEFAULT_LANES`; NEON flushes subnormal floats,
+/// which the decoder never meets, see `fsm_core`'s `transform/simd.rs`). Any lane count gives the
+/// same candidates; the host decodes 4, 8 or 16 at once.
+pub const LANES: usize = fsm_core::decoder::DEFAULT_LANES;
 /// Floats of decoder scratch of the largest plan (`Decoder::scratch_len_lanes` with
 /// [`LANES`]): the DFT searches' of `N = 4096`, or the cosine search's of an odd span of 4095
 /// (its transform takes the longer route), whichever is larger.

@@ -103,6 +103,9 @@ mod fw {
         sum: u64,
         min: u64,
         max: u64,
+        /// Instructions inside `decode_row_lanes` alone.
+        decode_sum: u64,
+        decode_start: u64,
     }
 
     impl Probe for RowClock {
@@ -110,6 +113,12 @@ mod fw {
         fn tables_built(&mut self) {
             self.tables = instructions(self.shift) - self.last;
             self.last = instructions(self.shift);
+        }
+        fn before_row(&mut self) {
+            self.decode_start = instructions(self.shift);
+        }
+        fn after_row(&mut self) {
+            self.decode_sum += instructions(self.shift) - self.decode_start;
         }
         fn end_row(&mut self, _row: u32, _len: usize) {
             let n = instructions(self.shift) - self.last;
@@ -207,6 +216,8 @@ mod fw {
                     sum: 0,
                     min: u64::MAX,
                     max: 0,
+                    decode_sum: 0,
+                    decode_start: 0,
                 };
                 let s = scan_to(plan, dump, storage, PART_PATH, &mut clock);
                 let pixels = s.rows as u64 * s.dump.width as u64;
@@ -223,6 +234,13 @@ mod fw {
                     clock.sum / pixels.max(1),
                     clock.min,
                     clock.max
+                );
+                hprintln!(
+                    "BENCH decode pixels={} instructions={} per_pixel={} (decode_row_lanes alone, {} lanes)",
+                    pixels,
+                    clock.decode_sum,
+                    clock.decode_sum / pixels.max(1),
+                    fsm_firmware::limits::LANES
                 );
                 s
             }

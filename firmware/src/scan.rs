@@ -190,6 +190,10 @@ pub trait Probe {
     fn before(&mut self, _x: usize) {}
     /// Just after pixel `x` was decoded into `pixel`.
     fn after(&mut self, _x: usize, _pixel: &Pixel) {}
+    /// Just before a row is decoded in one call (`PER_PIXEL` false).
+    fn before_row(&mut self) {}
+    /// Just after a row was decoded in one call (`PER_PIXEL` false).
+    fn after_row(&mut self) {}
     /// After the decoder's tables were built, before the first row.
     fn tables_built(&mut self) {}
     /// After a row's record of `len` bytes was written (whatever `PER_PIXEL` says).
@@ -262,7 +266,11 @@ pub fn decode_row<P: Probe>(
             Ok(())
         })
     } else {
-        decoder.decode_row_lanes::<LANES, CANDIDATE_CAPACITY>(&frames, buffers.scratch, pixels)
+        probe.before_row();
+        let decoded =
+            decoder.decode_row_lanes::<LANES, CANDIDATE_CAPACITY>(&frames, buffers.scratch, pixels);
+        probe.after_row();
+        decoded
     };
     decoded.map_err(|error| RowFailure::Decode { row, error })?;
     let len =

@@ -98,15 +98,13 @@ fn load_with<const L: usize, const W: usize, V: Vector<W>>(
     let mut saturated = 0u32;
     // Fringe `h − 1` is harmonic `h` (a full band starts at the first harmonic).
     if refs.len() == L {
+        // The group's fringes, frame by frame (a checked row holds them all).
+        let fringes = row.frames.get(start * w..).unwrap_or(&[]).chunks_exact(w);
         for c in 0..L / W {
             let offset = V::load(&offset.as_chunks::<W>().0[c]);
             let mut brightest = V::splat(0.0);
-            for (h, z) in profile.iter_mut().enumerate().skip(1) {
-                let at = (start + h - 1) * w + x0 + c * W;
-                let Some(codes) = row.frames.get(at..at + W) else {
-                    break;
-                };
-                let Ok(codes) = <&[u16; W]>::try_from(codes) else {
+            for (z, frame) in profile.iter_mut().skip(1).zip(fringes.clone()) {
+                let Some(codes) = frame.get(x0 + c * W..).and_then(|f| f.first_chunk::<W>()) else {
                     break;
                 };
                 let s = V::load_codes(codes);
@@ -169,7 +167,8 @@ pub(super) trait Path<const L: usize> {
 }
 
 /// Implements [`Path`]'s loops for one vector type `V` of `W` lanes, as many lanes as a
-/// chunk.
+/// chunk (the x86-64 lanes entered after run-time detection).
+#[cfg(target_arch = "x86_64")]
 macro_rules! path_with {
     ($w:literal, $v:ty) => {
         #[inline(always)]
@@ -189,7 +188,8 @@ macro_rules! path_with {
     };
 }
 
-/// What the build targets: SSE2 chunks of 4 lanes on x86-64 where 4 divides `L`, else scalar.
+/// What the build targets: chunks of its 4-lane vector (SSE2 on x86-64, NEON on the camera)
+/// where 4 divides `L`, else scalar.
 pub(super) struct Portable;
 
 impl<const L: usize> Path<L> for Portable {
@@ -201,7 +201,6 @@ impl<const L: usize> Path<L> for Portable {
         refs: &[References],
         profile: &mut [Lanes<L>],
     ) -> u32 {
-        #[cfg(target_arch = "x86_64")]
         if L.is_multiple_of(4) {
             return load_with::<L, 4, crate::transform::simd::F4>(row, x0, start, refs, profile);
         }
@@ -217,7 +216,6 @@ impl<const L: usize> Path<L> for Portable {
     }
     #[inline(always)]
     fn find_lit(search: &mut Search, profile: &[Lanes<L>], thresholds: &[f32; L]) {
-        #[cfg(target_arch = "x86_64")]
         if L.is_multiple_of(4) {
             return search.find_lit::<L, 4, crate::transform::simd::F4>(profile, thresholds);
         }

@@ -33,12 +33,20 @@ use crate::transform::spectrum::Spectrum;
 use crate::transform::CosineTransform;
 
 /// Pixels the build's own instructions decode at once: 4 in the SSE2 registers of the x86-64
-/// baseline, one on the camera's scalar core ([`Decoder::decode_row_lanes`]).
-/// [`Decoder::decode_row`] takes 8 or 16 where the CPU runs AVX2 or AVX-512F.
-#[cfg(target_arch = "x86_64")]
+/// baseline or the NEON registers of the camera's Cortex-A9 (built with `+neon`), else one
+/// ([`Decoder::decode_row_lanes`]). [`Decoder::decode_row`] takes 8 or 16 where the CPU runs
+/// AVX2 or AVX-512F.
+#[cfg(any(
+    target_arch = "x86_64",
+    all(target_arch = "arm", target_feature = "neon")
+))]
 pub const DEFAULT_LANES: usize = 4;
-/// Pixels the build's own instructions decode at once (one lane: the camera's scalar core).
-#[cfg(not(target_arch = "x86_64"))]
+/// Pixels the build's own instructions decode at once (one lane: no vector unit the build
+/// may use).
+#[cfg(not(any(
+    target_arch = "x86_64",
+    all(target_arch = "arm", target_feature = "neon")
+)))]
 pub const DEFAULT_LANES: usize = 1;
 /// Most pixels [`Decoder::decode_row`] decodes at once (AVX-512F).
 pub const MAX_LANES: usize = 16;

@@ -100,6 +100,7 @@ pub enum GroupCount {
 }
 
 /// `P(c) = PA + PB·cos(…)` (eqs. 4, 14), in fractions of the projector's full output.
+/// `PB` is at least [`MIN_LEVEL_AMPLITUDE`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -109,6 +110,12 @@ pub struct PatternLevels {
     /// `PB`.
     pub amplitude: f32,
 }
+
+/// Smallest `PB`: a fringe a millionth of the projector's output deep carries no signal, and
+/// keeping every level normal keeps the decoder's values away from subnormal floats, which the
+/// camera's NEON unit flushes to zero where the host keeps them
+/// (`transform/simd.rs`).
+pub const MIN_LEVEL_AMPLITUDE: f32 = 1e-6;
 
 /// Reference frames shown before the patterns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -430,7 +437,7 @@ impl fmt::Display for PlanError {
             ),
             PlanError::PatternLevels { offset, amplitude } => write!(
                 f,
-                "levels.offset = {offset}, levels.amplitude = {amplitude}: need amplitude > 0 and 0 <= offset - amplitude, offset + amplitude <= 1"
+                "levels.offset = {offset}, levels.amplitude = {amplitude}: need amplitude >= {MIN_LEVEL_AMPLITUDE:e} and 0 <= offset - amplitude, offset + amplitude <= 1"
             ),
             PlanError::EfsmNeedsDarkReference => write!(
                 f,
@@ -648,8 +655,9 @@ impl ScanPlan {
             });
         }
         let l = self.levels;
-        let levels_ok =
-            l.amplitude > 0.0 && l.offset - l.amplitude >= 0.0 && l.offset + l.amplitude <= 1.0;
+        let levels_ok = l.amplitude >= MIN_LEVEL_AMPLITUDE
+            && l.offset >= l.amplitude
+            && l.offset + l.amplitude <= 1.0;
         if !levels_ok {
             return Err(PlanError::PatternLevels {
                 offset: l.offset,

@@ -105,9 +105,10 @@ impl Search {
     }
 
     /// Finds the columns `1..span` of `profile` above `thresholds` in any lane, in one pass
-    /// over the profiles for every lane (`L/W` chunks of the vector type `V`: one compare and
-    /// one mask per chunk and column), so that each lane's search then reads only those
-    /// columns: most of a profile is dark.
+    /// over the profiles for every lane (`L/W` chunks of the vector type `V`), so that each
+    /// lane's search then reads only those columns. Most of a profile is dark: four columns at
+    /// a time are checked with one mask ([`Vector::above_any`]), and only a quad with a lit
+    /// column is read column by column (one compare and one mask per chunk and column).
     #[inline(always)]
     pub(crate) fn find_lit<const L: usize, const W: usize, V: Vector<W>>(
         &mut self,
@@ -119,15 +120,37 @@ impl Search {
         self.complete = true;
         let span = profile.len().saturating_sub(1);
         let thresholds = thresholds.as_chunks::<W>().0;
-        for (j, p) in profile.iter().enumerate().take(span).skip(1) {
-            let mut lanes = 0u32;
-            for (c, (p, t)) in p.as_chunks::<W>().0.iter().zip(thresholds).enumerate() {
-                lanes |= V::load(p).above(V::load(t)) << (c * W);
+        let chunk = |j: usize, c: usize| V::load(&profile[j].as_chunks::<W>().0[c]);
+        let mut j = 1;
+        while j < span {
+            let end = (j + 4).min(span);
+            if end - j == 4 {
+                let mut any = 0u32;
+                for (c, t) in thresholds.iter().enumerate() {
+                    let quad = [
+                        chunk(j, c),
+                        chunk(j + 1, c),
+                        chunk(j + 2, c),
+                        chunk(j + 3, c),
+                    ];
+                    any |= V::above_any(quad, V::load(t));
+                }
+                if any == 0 {
+                    j = end;
+                    continue;
+                }
             }
-            if lanes != 0 && self.lit.push((j as u16, lanes)).is_err() {
-                self.complete = false;
-                break;
+            for j in j..end {
+                let mut lanes = 0u32;
+                for (c, t) in thresholds.iter().enumerate() {
+                    lanes |= chunk(j, c).above(V::load(t)) << (c * W);
+                }
+                if lanes != 0 && self.lit.push((j as u16, lanes)).is_err() {
+                    self.complete = false;
+                    return;
+                }
             }
+            j = end;
         }
     }
 }

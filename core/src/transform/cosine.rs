@@ -323,7 +323,6 @@ impl<'t> CosineTransform<'t> {
             self.run::<L, 8, crate::transform::simd::F8>(data, scratch);
             return Ok(());
         }
-        #[cfg(target_arch = "x86_64")]
         if L.is_multiple_of(4) {
             self.run::<L, 4, crate::transform::simd::F4>(data, scratch);
             return Ok(());
@@ -335,6 +334,7 @@ impl<'t> CosineTransform<'t> {
     /// [`CosineTransform::inverse`] with `L/W` chunks of the vector type `V`. A caller passing
     /// an AVX vector type must run on a CPU that has it, in a function compiled for it
     /// (`crate::decoder`).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn inverse_with<const L: usize, const W: usize, V: Vector<W>>(
         &self,

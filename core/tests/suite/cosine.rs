@@ -228,3 +228,82 @@ fn a_direct_light_under_a_glossy_lobe_is_found() {
         assert!(share >= required, "{share}");
     }
 }
+
+/// Every lane count decodes a row to the same bits: one lane (the scalar reference), 4 (SSE2
+/// here, NEON on the camera), 8, 16 and what `decode_row` picks for this CPU. The row mixes
+/// what each lane's search meets (shadow, one light, two touching lights, a glossy lobe, a
+/// saturated pixel) and is 37 pixels wide, so every lane count ends on a partial chunk.
+#[test]
+fn every_lane_count_gives_the_same_candidates() {
+    for plan in [
+        ScanPlan::paper_bfsm(),
+        ScanPlan::paper_efsm(GroupCount::One),
+        ScanPlan::paper_efsm(GroupCount::Two),
+    ] {
+        let mut plan = plan;
+        plan.decoding.sensor = SENSOR;
+        let mut noise = Noise::new(29);
+        let span = plan.span_columns() as f64;
+        let pixels: Vec<Vec<u16>> = (0..37)
+            .map(|x| {
+                let at = span * (0.1 + 0.8 * noise.uniform());
+                let light: Light = match x % 5 {
+                    0 => Vec::new(),
+                    1 => footprint(at, 1.0, 0.5, 1600.0),
+                    2 => footprint(at, 1.0, 0.4, 1600.0)
+                        .into_iter()
+                        .chain(footprint(at + 3.0, 1.0, 0.4, 500.0))
+                        .collect(),
+                    3 => footprint(at, 1.5, 0.6, 300.0)
+                        .into_iter()
+                        .chain(footprint(at + 4.0, 30.0, 1.0, 3000.0))
+                        .collect(),
+                    _ => footprint(at, 1.0, 0.5, 40_000.0),
+                };
+                samples(&plan, &light, &mut noise)
+            })
+            .collect();
+        let frames = support::row_frames(&pixels);
+        let mut tables = vec![0.0; Decoder::tables_len(&plan)];
+        let decoder = Decoder::new(&plan, &mut tables).unwrap();
+        let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
+        let row = Row {
+            frames: &frames,
+            width: pixels.len(),
+            bit_depth: BITS,
+            column_limits: None,
+        };
+        let fresh = || vec![PixelCandidates::<8>::new(); pixels.len()];
+        let (mut one, mut four, mut eight, mut sixteen, mut fastest) =
+            (fresh(), fresh(), fresh(), fresh(), fresh());
+        decoder
+            .decode_row_lanes::<1, 8>(&row, &mut scratch, &mut one)
+            .unwrap();
+        decoder
+            .decode_row_lanes::<4, 8>(&row, &mut scratch, &mut four)
+            .unwrap();
+        decoder
+            .decode_row_lanes::<8, 8>(&row, &mut scratch, &mut eight)
+            .unwrap();
+        decoder
+            .decode_row_lanes::<16, 8>(&row, &mut scratch, &mut sixteen)
+            .unwrap();
+        decoder
+            .decode_row(&row, &mut scratch, &mut fastest)
+            .unwrap();
+        let lit = one.iter().filter(|p| !p.candidates.is_empty()).count();
+        assert!(
+            lit >= 25,
+            "{lit} of 37 pixels lit: the row tests too little"
+        );
+        // `Debug` prints every float exactly (shortest round trip): equal text, equal bits.
+        let bits = |out: &[PixelCandidates<8>]| format!("{out:?}");
+        for (name, other) in [(4, &four), (8, &eight), (16, &sixteen), (0, &fastest)] {
+            assert_eq!(
+                bits(&one),
+                bits(other),
+                "{name} lanes (0: decode_row) differ from one"
+            );
+        }
+    }
+}

@@ -206,6 +206,19 @@ fn validation_names_the_violated_rule() {
         },
     );
 
+    // A fringe a ten-millionth deep: no signal, and subnormal floats in the decoder.
+    let mut p = ScanPlan::paper_bfsm();
+    p.levels.amplitude = 1e-7;
+    rejects(
+        p,
+        PlanError::PatternLevels {
+            offset: 0.5,
+            amplitude: 1e-7,
+        },
+    );
+    p.levels.amplitude = fsm_core::plan::MIN_LEVEL_AMPLITUDE;
+    assert_eq!(p.validate(), Ok(()));
+
     let mut p = base;
     p.references.dark = false;
     rejects(p, PlanError::EfsmNeedsDarkReference);
