@@ -1,14 +1,18 @@
 //! Pictures of what the decoder sees (people would rather look than read):
 //!
-//! - one pixel: its fringe samples against frequency (the f-domain) and the magnitude of its
-//!   spectrum against column (the c-domain), with the peaks the decoder found marked — paper
+//! - one pixel: its fringe samples against frequency (the f-domain) and what the decoder reads
+//!   its lights from against column (the c-domain), with the lights it found marked — paper
 //!   Figs. 3 and 8; for EFSM one pair of panels per group plus its mask levels;
-//! - one row: the c-domain magnitude of every pixel of a camera row as an image, pixel `x`
+//! - one row: that c-domain view of every pixel of a camera row as an image, pixel `x`
 //!   across, column down — paper Fig. 4e, where direct and indirect light show up as separate
 //!   lines.
 //!
-//! The numbers come from `fsm_core`'s decoder ([`Decoder::spectrum`], [`Decoder::peaks`],
-//! [`Decoder::decode_pixel`]); this module only draws them (`plotters`, bitmap backend, PNG).
+//! The c-domain view is the decoder's own: for a plan decoded by the cosine search (the
+//! default), the light of every column, the inverse cosine transform of the samples
+//! ([`Decoder::profile`], SPEC §2b); for the DFT searches (CLEAN, local maxima), the magnitude of
+//! the spectrum ([`Decoder::spectrum`]). The numbers come from `fsm_core`'s decoder
+//! ([`Decoder::peaks`], [`Decoder::decode_pixel`]); this module only draws them (`plotters`,
+//! bitmap backend, PNG).
 
 use std::path::Path;
 
@@ -35,8 +39,11 @@ pub struct GroupView {
     pub samples: Vec<u16>,
     /// Column (BFSM) or local column `c̃` (EFSM) of each bin.
     pub bin_columns: Vec<f32>,
-    /// `|X_k|` of each bin.
+    /// Of each bin: `|X_k|` (DFT searches), or the light of the column, DN of fringe
+    /// modulation (cosine search: [`GroupView::profile`]; noise makes some slightly negative).
     pub magnitudes: Vec<f32>,
+    /// Whether `magnitudes` is the column profile of the cosine search, one bin per column.
+    pub profile: bool,
     /// Peaks found: (span-domain column, magnitude at the peak, amplitude DN).
     pub peaks: Vec<(f32, f32, f32)>,
     /// EFSM: each mask's sample, DN (empty for BFSM).
@@ -92,13 +99,8 @@ pub fn pixel_view(
     let sample = |i: usize| frames[i * width + xi];
     let mut groups = Vec::new();
     for group in plan.groups() {
-        let spectrum = decoder
-            .spectrum(&row, xi, group, &mut scratch)
-            .map_err(row_error)?;
-        let magnitudes: Vec<f32> = (0..spectrum.len()).map(|k| spectrum.magnitude(k)).collect();
-        let bin_columns = (0..magnitudes.len())
-            .map(|k| plan.bin_column(k as f32))
-            .collect();
+        let (bin_columns, magnitudes, profile) =
+            c_domain(plan, &decoder, &row, xi, group, &mut scratch).map_err(row_error)?;
         let peaks = decoder
             .peaks(&row, xi, group, &mut scratch)
             .map_err(row_error)?;
@@ -120,6 +122,7 @@ pub fn pixel_view(
                 .collect(),
             bin_columns,
             magnitudes,
+            profile,
             peaks: peaks
                 .peaks
                 .iter()
@@ -142,7 +145,29 @@ pub fn pixel_view(
     })
 }
 
-/// The c-domain of a whole row: one spectrum per pixel.
+/// What the decoder reads a pixel's lights from: (column of each bin, value of each bin,
+/// whether it is the cosine search's column profile); see the module's docs.
+fn c_domain(
+    plan: &ScanPlan,
+    decoder: &Decoder<'_>,
+    row: &Row<'_>,
+    x: usize,
+    group: Group,
+    scratch: &mut [f32],
+) -> std::result::Result<(Vec<f32>, Vec<f32>, bool), fsm_core::RowError> {
+    if let Some(profile) = decoder.profile(row, x, group, scratch)? {
+        let columns = (0..profile.len()).map(|j| j as f32).collect();
+        return Ok((columns, profile.to_vec(), true));
+    }
+    let spectrum = decoder.spectrum(row, x, group, scratch)?;
+    let magnitudes: Vec<f32> = (0..spectrum.len()).map(|k| spectrum.magnitude(k)).collect();
+    let columns = (0..magnitudes.len())
+        .map(|k| plan.bin_column(k as f32))
+        .collect();
+    Ok((columns, magnitudes, false))
+}
+
+/// The c-domain of a whole row: one view per pixel (see the module's docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RowMap {
     /// Camera row.
@@ -153,8 +178,10 @@ pub struct RowMap {
     pub width: usize,
     /// Column (or `c̃`) of each bin.
     pub bin_columns: Vec<f32>,
-    /// `|X_k|` of pixel `x` at bin `k`: `magnitudes[x·bins + k]`.
+    /// Pixel `x`'s value at bin `k` (as [`GroupView::magnitudes`]): `magnitudes[x·bins + k]`.
     pub magnitudes: Vec<f32>,
+    /// Whether the values are the cosine search's column profiles.
+    pub profile: bool,
 }
 
 impl RowMap {
@@ -192,21 +219,22 @@ pub fn row_map(
         bit_depth,
         column_limits: None,
     };
-    let bins = plan.bin_count();
     let mut scratch = vec![0.0f32; Decoder::scratch_len(plan)];
-    let mut magnitudes = Vec::with_capacity(width * bins);
+    let mut magnitudes = Vec::new();
+    let (mut bin_columns, mut profile) = (Vec::new(), false);
     for x in 0..width {
-        let spectrum = decoder
-            .spectrum(&row, x, group, &mut scratch)
+        let (columns, values, is_profile) = c_domain(plan, &decoder, &row, x, group, &mut scratch)
             .map_err(|e| Error::Usage(format!("row {y}: {e}")))?;
-        magnitudes.extend((0..bins).map(|k| spectrum.magnitude(k)));
+        magnitudes.extend(values);
+        (bin_columns, profile) = (columns, is_profile);
     }
     Ok(RowMap {
         y,
         group,
         width,
-        bin_columns: (0..bins).map(|k| plan.bin_column(k as f32)).collect(),
+        bin_columns,
         magnitudes,
+        profile,
     })
 }
 
@@ -407,20 +435,27 @@ pub fn plot_pixel(plan: &ScanPlan, view: &PixelView, out: &Path) -> Result<()> {
                 .fold(0.0f32, f32::max)
                 .max(1e-3) as f64
                 * 1.12;
-            let mut chart = ChartBuilder::on(&areas[base + 1])
-                .caption(
-                    format!("spectrum magnitude (c-domain), peaks marked{suffix}"),
-                    (FONT, 18),
+            // A column profile dips below zero where there is only noise.
+            let m_min = gv.magnitudes.iter().copied().fold(0.0f32, f32::min) as f64 * 1.12;
+            let (caption, y_desc) = if gv.profile {
+                (
+                    "light per column (inverse cosine transform), lights marked",
+                    "light (DN of fringe modulation)",
                 )
+            } else {
+                ("spectrum magnitude (c-domain), peaks marked", "|X| (DN)")
+            };
+            let mut chart = ChartBuilder::on(&areas[base + 1])
+                .caption(format!("{caption}{suffix}"), (FONT, 18))
                 .margin(10)
                 .x_label_area_size(40)
                 .y_label_area_size(70)
-                .build_cartesian_2d(0.0..c_max, 0.0..m_max)
+                .build_cartesian_2d(0.0..c_max, m_min..m_max)
                 .map_err(|x| e(&x))?;
             chart
                 .configure_mesh()
                 .x_desc(span_label(plan))
-                .y_desc("|X| (DN)")
+                .y_desc(y_desc)
                 .label_style((FONT, 14))
                 .draw()
                 .map_err(|x| e(&x))?;
@@ -511,7 +546,11 @@ pub fn plot_pixel(plan: &ScanPlan, view: &PixelView, out: &Path) -> Result<()> {
 pub fn plot_row_map(plan: &ScanPlan, map: &RowMap, out: &Path) -> Result<()> {
     let (width, height) = (1200u32, 800u32);
     let c_max = map.bin_columns.last().copied().unwrap_or(1.0) as f64;
-    let bin_width = plan.bin_width() as f64;
+    // Bins are evenly spaced from column 0: one per column for a profile.
+    let bin_width = match map.bin_columns.get(1) {
+        Some(&c) => c as f64,
+        None => plan.bin_width() as f64,
+    };
     let suffix = if plan.group_count() > 1 {
         format!(", group {}", map.group.number())
     } else {
@@ -525,7 +564,12 @@ pub fn plot_row_map(plan: &ScanPlan, map: &RowMap, out: &Path) -> Result<()> {
         let mut chart = ChartBuilder::on(root)
             .caption(
                 format!(
-                    "c-domain of camera row {}{suffix} (each pixel scaled to its maximum)",
+                    "{} of camera row {}{suffix} (each pixel scaled to its maximum)",
+                    if map.profile {
+                        "light per column"
+                    } else {
+                        "c-domain"
+                    },
                     map.y
                 ),
                 (FONT, 20),
@@ -566,4 +610,60 @@ pub fn plot_row_map(plan: &ScanPlan, map: &RowMap, out: &Path) -> Result<()> {
         }
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fsm_core::GroupCount;
+
+    /// A row of `width` pixels, pixel `x` lit at column `column(x)` (1200 DN) over 100 DN.
+    fn lit_row(plan: &ScanPlan, width: usize, column: impl Fn(usize) -> u32) -> Vec<u16> {
+        let mut frames = vec![0u16; plan.sequence_len() * width];
+        for x in 0..width {
+            for (i, p) in plan.sequence().enumerate() {
+                let v = 100.0 + 1200.0 * plan.intensity(p, column(x));
+                frames[i * width + x] = v.round() as u16;
+            }
+        }
+        frames
+    }
+
+    /// The pixel plot shows what the decoder reads: the column profile for the cosine search
+    /// (one bin per column, its maximum on the lit column and the light marked there), the
+    /// spectrum for a DFT search.
+    #[test]
+    fn the_c_domain_is_the_decoders_own() {
+        for plan in [
+            ScanPlan::paper_bfsm(),
+            ScanPlan::paper_efsm(GroupCount::Two),
+        ] {
+            let frames = lit_row(&plan, 3, |x| 300 + 7 * x as u32);
+            let view = pixel_view(&plan, &frames, 3, 12, 1, 0).unwrap();
+            for gv in &view.groups {
+                assert!(gv.profile);
+                let span = plan.span_columns() as usize;
+                assert_eq!(gv.bin_columns.len(), span + 1);
+                assert_eq!(gv.magnitudes.len(), span + 1);
+                let top = (0..=span)
+                    .max_by(|&a, &b| gv.magnitudes[a].total_cmp(&gv.magnitudes[b]))
+                    .unwrap();
+                let (light, _, _) = gv.peaks[0];
+                assert!((light - top as f32).abs() < 1.0, "{light} vs {top}");
+                // BFSM: the column itself; EFSM: its local column in the group's blocks.
+                let local = (307 + plan.group_shift(gv.group) as usize) % span;
+                assert!(top.abs_diff(local) <= 1, "{top} vs {local}");
+            }
+            assert!((view.candidates.strongest().unwrap().column - 307.0).abs() < 0.1);
+            let map = row_map(&plan, &frames, 3, 12, 0, Group::One).unwrap();
+            assert!(map.profile);
+            assert_eq!(map.magnitudes.len(), 3 * map.bins());
+            assert_eq!(map.spectrum(1), view.groups[0].magnitudes.as_slice());
+        }
+        let plan = ScanPlan::paper_bfsm().with_clean();
+        let frames = lit_row(&plan, 1, |_| 300);
+        let view = pixel_view(&plan, &frames, 1, 12, 0, 0).unwrap();
+        assert!(!view.groups[0].profile);
+        assert_eq!(view.groups[0].bin_columns.len(), plan.bin_count());
+    }
 }

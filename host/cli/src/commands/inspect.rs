@@ -11,12 +11,14 @@ use super::{BitDepth, CaptureSource};
 
 /// Plot what the decoder sees.
 ///
-///   --pixel X,Y  the pixel's fringe samples against frequency, and its spectrum magnitude
-///                against projector column with the detected peaks marked (paper Figs. 3, 8);
-///                EFSM adds the mask samples of each block.
-///   --row Y      the spectrum of every pixel of camera row Y as an image: pixel across,
-///                column down (paper Fig. 4e). Direct light draws one line; light reflected
-///                from elsewhere draws a second, separate line.
+///   --pixel X,Y  the pixel's fringe samples against frequency, and against projector
+///                column what the decoder reads its lights from, the lights marked (paper
+///                Figs. 3, 8): the light of each column (the cosine search, the default) or
+///                the spectrum magnitude (CLEAN, local maxima). EFSM adds the mask samples of
+///                each block.
+///   --row Y      the same for every pixel of camera row Y as an image: pixel across, column
+///                down (paper Fig. 4e). Direct light draws one line; light reflected from
+///                elsewhere draws a second, separate line.
 ///
 /// Examples:
 ///   fsm inspect --plan plan.toml --images captures/ --pixel 640,480 --out pixel.png
