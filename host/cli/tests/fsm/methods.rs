@@ -3,6 +3,7 @@
 //! images what each method shows, and the commands that take FSM plans only saying so.
 
 use std::fs;
+use std::path::{Path, PathBuf};
 
 use fsm_core::{MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
 use fsm_io::plan_file::{read_method_plan, MethodPlan};
@@ -181,28 +182,7 @@ fn every_method_goes_plan_simulate_decode_scan() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for method in ["bfsm", "phase-shift", "micro-phase-shift", "line-scan"] {
-        let plan = d.join(format!("{method}.toml"));
-        ok(&[
-            "plan",
-            "--method",
-            method,
-            "--projector-columns",
-            "768",
-            "--out",
-            s(&plan),
-        ]);
-        let sim = d.join(format!("{method}-sim"));
-        ok_stderr(&[
-            "simulate",
-            "--scene",
-            "plane",
-            "--plan",
-            s(&plan),
-            "--camera",
-            "128x96",
-            "--out",
-            s(&sim),
-        ]);
+        let (plan, sim) = plane_of(d, method, "128x96", &[]);
         let frames = read_method_plan(&plan).unwrap().patterns().frame_count();
         // The dump carries the plan's fingerprint; its decode is a candidate file.
         let decoded = d.join(format!("{method}-decoded"));
@@ -305,29 +285,7 @@ fn a_baselines_image_stack_converts_and_decodes_like_its_dump() {
     // Phase shift (15 frames): captured as images, converted to a dump, both decoded.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let plan = d.join("ps.toml");
-    ok(&[
-        "plan",
-        "--method",
-        "phase-shift",
-        "--projector-columns",
-        "768",
-        "--out",
-        s(&plan),
-    ]);
-    let sim = d.join("sim");
-    ok_stderr(&[
-        "simulate",
-        "--scene",
-        "plane",
-        "--plan",
-        s(&plan),
-        "--camera",
-        "64x48",
-        "--images",
-        "--out",
-        s(&sim),
-    ]);
+    let (plan, sim) = plane_of(d, "phase-shift", "64x48", &["--images"]);
     let dump = d.join("converted.dump");
     ok_stderr(&[
         "convert",
@@ -349,4 +307,26 @@ fn a_baselines_image_stack_converts_and_decodes_like_its_dump() {
     let from_dump = decode(&["--dump", s(&dump)], "from-dump");
     assert!(from_images.len() > 1000);
     assert_eq!(from_images, from_dump);
+}
+
+/// `fsm plan --method METHOD` for the simulator's 768-column projector (`DIR/METHOD.toml`),
+/// then `fsm simulate` of the plane with it (`DIR/METHOD-sim`, camera `camera`, `extra`
+/// arguments); returns the plan file and the simulation folder.
+fn plane_of(dir: &Path, method: &str, camera: &str, extra: &[&str]) -> (PathBuf, PathBuf) {
+    let plan = dir.join(format!("{method}.toml"));
+    ok(&[
+        "plan",
+        "--method",
+        method,
+        "--projector-columns",
+        "768",
+        "--out",
+        s(&plan),
+    ]);
+    let sim = dir.join(format!("{method}-sim"));
+    let mut args = vec!["simulate", "--scene", "plane", "--plan", s(&plan)];
+    args.extend(["--camera", camera, "--out", s(&sim)]);
+    args.extend_from_slice(extra);
+    ok_stderr(&args);
+    (plan, sim)
 }
