@@ -99,8 +99,10 @@ pub fn pixel_view(
     let sample = |i: usize| frames[i * width + xi];
     let mut groups = Vec::new();
     for group in plan.groups() {
-        let (bin_columns, magnitudes, profile) =
-            c_domain(plan, &decoder, &row, xi, group, &mut scratch).map_err(row_error)?;
+        let mut magnitudes = Vec::new();
+        let profile = c_domain(&decoder, &row, xi, group, &mut scratch, &mut magnitudes)
+            .map_err(row_error)?;
+        let bin_columns = bin_columns(plan, magnitudes.len(), profile);
         let peaks = decoder
             .peaks(&row, xi, group, &mut scratch)
             .map_err(row_error)?;
@@ -145,26 +147,37 @@ pub fn pixel_view(
     })
 }
 
-/// What the decoder reads a pixel's lights from: (column of each bin, value of each bin,
-/// whether it is the cosine search's column profile); see the module's docs.
+/// Appends to `out` what the decoder reads a pixel's lights from, one value per bin (see the
+/// module's docs); returns whether it is the cosine search's column profile.
 fn c_domain(
-    plan: &ScanPlan,
     decoder: &Decoder<'_>,
     row: &Row<'_>,
     x: usize,
     group: Group,
     scratch: &mut [f32],
-) -> std::result::Result<(Vec<f32>, Vec<f32>, bool), fsm_core::RowError> {
+    out: &mut Vec<f32>,
+) -> std::result::Result<bool, fsm_core::RowError> {
     if let Some(profile) = decoder.profile(row, x, group, scratch)? {
-        let columns = (0..profile.len()).map(|j| j as f32).collect();
-        return Ok((columns, profile.to_vec(), true));
+        out.extend_from_slice(profile);
+        return Ok(true);
     }
     let spectrum = decoder.spectrum(row, x, group, scratch)?;
-    let magnitudes: Vec<f32> = (0..spectrum.len()).map(|k| spectrum.magnitude(k)).collect();
-    let columns = (0..magnitudes.len())
-        .map(|k| plan.bin_column(k as f32))
-        .collect();
-    Ok((columns, magnitudes, false))
+    out.extend((0..spectrum.len()).map(|k| spectrum.magnitude(k)));
+    Ok(false)
+}
+
+/// The column (or `c̃`) of each of `bins` bins: one per column for a profile, the spectrum's
+/// bin columns otherwise.
+fn bin_columns(plan: &ScanPlan, bins: usize, profile: bool) -> Vec<f32> {
+    (0..bins)
+        .map(|k| {
+            if profile {
+                k as f32
+            } else {
+                plan.bin_column(k as f32)
+            }
+        })
+        .collect()
 }
 
 /// The c-domain of a whole row: one view per pixel (see the module's docs).
@@ -221,18 +234,17 @@ pub fn row_map(
     };
     let mut scratch = vec![0.0f32; Decoder::scratch_len(plan)];
     let mut magnitudes = Vec::new();
-    let (mut bin_columns, mut profile) = (Vec::new(), false);
+    let mut profile = false;
     for x in 0..width {
-        let (columns, values, is_profile) = c_domain(plan, &decoder, &row, x, group, &mut scratch)
+        profile = c_domain(&decoder, &row, x, group, &mut scratch, &mut magnitudes)
             .map_err(|e| Error::Usage(format!("row {y}: {e}")))?;
-        magnitudes.extend(values);
-        (bin_columns, profile) = (columns, is_profile);
     }
+    let bins = magnitudes.len() / width.max(1);
     Ok(RowMap {
         y,
         group,
         width,
-        bin_columns,
+        bin_columns: bin_columns(plan, bins, profile),
         magnitudes,
         profile,
     })
