@@ -63,6 +63,7 @@ pub mod search;
 pub mod transform;
 pub mod wire;
 
+pub use baseline::code_ensemble::CodeEnsemblePlan;
 pub use baseline::line_scan::LineScanPlan;
 pub use baseline::micro_phase_shift::MicroPhaseShiftPlan;
 pub use baseline::phase_shift::PhaseShiftPlan;

@@ -6,12 +6,14 @@
 //! |---|---|---|
 //! | phase shift + Gray code (PS) | [`phase_shift`] | dark, white, 6 fringes, 7 Gray codes |
 //! | Micro Phase Shifting (MPS, Gupta & Nayar 2012) | [`micro_phase_shift`] | 17 fringes ("16–15") |
+//! | Code Ensemble (CE, Gupta et al. 2011) | [`code_ensemble`] | 4 binary codes × 10 bits, each with its inverse (80) |
 //! | line scanning (LS) | [`line_scan`] | dark, white, one lit column per frame (768) |
 //!
 //! [`PatternSequence`] is what a simulator renders and a pattern writer draws, for these and
 //! the FSM plans alike; [`PixelDecoder`] is what turns one pixel's samples into candidates, and
 //! its [`PixelDecoder::decode_row`] checks a row once for every baseline.
 
+pub mod code_ensemble;
 pub mod line_scan;
 pub mod micro_phase_shift;
 pub mod phase_shift;

@@ -1,16 +1,19 @@
 //! The methods FSM is compared with: phase shift (exact on direct light, wrong under
 //! interreflection, paper §III-B), Micro Phase Shifting (exact on direct light, its code broken
 //! by a second light) and line scanning (every light found, but with a whole sample's noise per
-//! column where BFSM, with as many patterns, has `√(2/span)` of it: paper Fig. 13).
+//! column where BFSM, with as many patterns, has `√(2/span)` of it: paper Fig. 13) and Code
+//! Ensemble (its XOR codes survive broad indirect light that flips the Gray code's coarse bits;
+//! a mirror brighter than the direct light wins every code).
 
 use crate::support;
 
+use fsm_core::baseline::code_ensemble::{self, Code, CodeEnsembleError, CODES, CODEWORDS};
 use fsm_core::baseline::line_scan::{LineDetector, LineScanError};
 use fsm_core::baseline::micro_phase_shift::{MicroPhaseShiftError, MAX_FREQUENCIES};
 use fsm_core::baseline::phase_shift::{PhaseShiftError, PhaseShiftPattern};
 use fsm_core::{
-    ColumnRange, LineScanPlan, MicroPhaseShiftPlan, PatternSequence, PhaseShiftPlan,
-    PixelCandidates, PixelDecoder, ScanPlan,
+    CodeEnsemblePlan, ColumnRange, LineScanPlan, MicroPhaseShiftPlan, PatternSequence,
+    PhaseShiftPlan, PixelCandidates, PixelDecoder, ScanPlan,
 };
 use support::{Noise, Pixel, SYNTHETIC_SENSOR};
 
@@ -186,6 +189,7 @@ fn rows_decode_like_their_pixels() {
     rows_decode_like_pixels(&PhaseShiftPlan::paper());
     rows_decode_like_pixels(&MicroPhaseShiftPlan::paper());
     rows_decode_like_pixels(&line_scan());
+    rows_decode_like_pixels(&CodeEnsemblePlan::paper());
 }
 
 /// The worst column error over every projector column lit alone, and over 200 defocused spots
@@ -533,4 +537,200 @@ fn line_scan_plan_rules() {
             assert_ne!(a, b);
         }
     }
+}
+
+/// Widths of the runs of equal bits of pattern `bit` of `code` over the codewords, the first and
+/// last (cut by the projector's edges) left out.
+fn interior_runs(code: Code, bit: usize) -> Vec<usize> {
+    let value = |k: usize| (code.patterns(k) >> bit) & 1;
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for k in 1..=CODEWORDS {
+        if k == CODEWORDS || value(k) != value(k - 1) {
+            runs.push(k - start);
+            start = k;
+        }
+    }
+    runs[1..runs.len() - 1].to_vec()
+}
+
+#[test]
+fn the_ensembles_codes_have_their_stripe_widths_and_decode_every_codeword() {
+    let stripes = |code: Code| {
+        let runs: Vec<usize> = (0..code_ensemble::BITS)
+            .flat_map(|b| interior_runs(code, b))
+            .collect();
+        (*runs.iter().min().unwrap(), *runs.iter().max().unwrap())
+    };
+    for code in CODES {
+        let mut seen = vec![false; CODEWORDS];
+        for k in 0..CODEWORDS {
+            let word = code.patterns(k);
+            assert!(
+                !seen[word as usize],
+                "{}: codeword {k} repeats",
+                code.name()
+            );
+            seen[word as usize] = true;
+            assert_eq!(code.index(word), k, "{}", code.name());
+        }
+        println!(
+            "CE {}: stripes {:?} columns wide",
+            code.name(),
+            stripes(code)
+        );
+    }
+    // The Gray codes change one bit from column to column, the long-run one cyclically too.
+    for code in [Code::Gray, Code::LongRun] {
+        for k in 1..CODEWORDS {
+            assert_eq!((code.patterns(k) ^ code.patterns(k - 1)).count_ones(), 1);
+        }
+    }
+    let lr = code_ensemble::LONG_RUN.codeword;
+    assert_eq!((lr[0] ^ lr[CODEWORDS - 1]).count_ones(), 1);
+    assert_eq!(stripes(Code::Gray), (2, 512));
+    assert_eq!(stripes(Code::LongRun).0, 7);
+    assert!(
+        stripes(Code::LongRun).1 <= 18,
+        "{:?}",
+        stripes(Code::LongRun)
+    );
+    // The XOR codes hold no stripe wider than their base's.
+    assert_eq!(stripes(Code::Xor2), (1, 2));
+    assert_eq!(stripes(Code::Xor4), (2, 4));
+}
+
+#[test]
+fn ce_decodes_every_column_under_direct_light() {
+    for columns in [768u16, 256, 1024] {
+        let plan = CodeEnsemblePlan::for_projector(columns);
+        plan.validate().unwrap();
+        assert_eq!(plan.frame_count(), 80);
+        let mut noise = Noise::new(20);
+        for c in 0..columns as u32 {
+            let s = samples(&plan, &Pixel::column(c, 1500.0), 1.0, &mut noise);
+            let got = decode(&plan, &s);
+            let got = got.strongest().unwrap_or_else(|| panic!("column {c}"));
+            assert_eq!(got.column, c as f32, "{columns} columns");
+            assert!((got.amplitude - 1500.0).abs() < 5.0, "{got:?}");
+        }
+    }
+    // A projector wider than the codes: a codeword covers about 1.9 columns, decoded as its
+    // columns' centre.
+    let plan = CodeEnsemblePlan::for_projector(1920);
+    let mut noise = Noise::new(21);
+    let mut worst: f64 = 0.0;
+    for c in 0..1920u32 {
+        let s = samples(&plan, &Pixel::column(c, 1500.0), 1.0, &mut noise);
+        let got = decode(&plan, &s).strongest().expect("decoded").column as f64;
+        worst = worst.max((got - c as f64).abs());
+    }
+    println!("CE on 1920 columns: worst error {worst} columns");
+    assert!(worst <= 0.5, "{worst}");
+}
+
+#[test]
+fn ce_keeps_the_direct_column_under_broad_indirect_light() {
+    // Direct light at column c, plus indirect light spread evenly over 300 columns away from
+    // it, 1.5 times the direct light in all: in a coarse Gray pattern the unlit half receives
+    // more light than the lit one, so the conventional code's high bits flip; the XOR codes'
+    // stripes split the broad light evenly between a pattern and its inverse.
+    let plan = CodeEnsemblePlan::paper();
+    let mut noise = Noise::new(22);
+    let (mut gray_wrong, mut ensemble_wrong, mut silent, mut n) = (0, 0, 0, 0);
+    for c in (20..360u32).step_by(3) {
+        let mut px = Pixel::column(c, 1000.0);
+        for j in 420..720u32 {
+            px.lights.push((j, 1500.0 / 300.0));
+        }
+        let s = samples(&plan, &px, 1.0, &mut noise);
+        n += 1;
+        // The conventional Gray code alone: frames 0..20.
+        let mut bits = 0u16;
+        for b in 0..code_ensemble::BITS {
+            bits |= ((s[2 * b] > s[2 * b + 1]) as u16) << b;
+        }
+        gray_wrong += (Code::Gray.index(bits) != c as usize) as usize;
+        match decode(&plan, &s).strongest() {
+            Some(got) => ensemble_wrong += (got.column != c as f32) as usize,
+            None => silent += 1,
+        }
+    }
+    println!(
+        "CE under broad indirect light: Gray alone wrong at {gray_wrong} of {n}, \
+         the ensemble wrong at {ensemble_wrong}, silent at {silent}"
+    );
+    assert!(gray_wrong * 2 > n, "{gray_wrong} of {n}");
+    assert_eq!(ensemble_wrong, 0);
+    assert!(silent * 20 < n, "{silent} of {n}");
+}
+
+#[test]
+fn ce_reports_a_mirror_brighter_than_the_direct_light() {
+    // A mirror's narrow light is a second column, not a broad glow: every code reads whichever
+    // light is brighter. Weaker, the ensemble keeps the direct column; stronger, all four codes
+    // agree on the mirror's column, a wrong point FSM's candidates avoid.
+    let plan = CodeEnsemblePlan::paper();
+    let mut noise = Noise::new(23);
+    for (mirror_dn, expect_mirror) in [(600.0, false), (1500.0, true)] {
+        for i in 0..20u32 {
+            let (direct, mirror) = (100 + 7 * i, 523 + 5 * i);
+            let px = Pixel::column(direct, 1000.0).plus(Pixel::column(mirror, mirror_dn));
+            let got = decode(&plan, &samples(&plan, &px, 1.0, &mut noise));
+            let want = if expect_mirror { mirror } else { direct };
+            assert_eq!(got.strongest().map(|c| c.column), Some(want as f32));
+        }
+    }
+}
+
+#[test]
+fn ce_leaves_dark_pixels_and_disagreement_without_a_column() {
+    let plan = CodeEnsemblePlan::paper();
+    let dark = Pixel {
+        lights: vec![],
+        ambient: 40.0,
+    };
+    let s = samples(&plan, &dark, 1.0, &mut Noise::new(24));
+    assert!(decode(&plan, &s).candidates.is_empty());
+    // Codes that point four ways: no column.
+    assert_eq!(plan.agreed([10, 200, 400, 600]), None);
+    // Two agreeing codes win, in the authors' precedence.
+    assert_eq!(plan.agreed([10, 200, 400, 11]), Some(11));
+    assert_eq!(plan.agreed([10, 11, 400, 600]), Some(11));
+    assert_eq!(plan.agreed([10, 200, 11, 10]), Some(11));
+    assert_eq!(plan.agreed([5, 5, 5, 5]), Some(5));
+}
+
+#[test]
+fn ce_plan_rules() {
+    let mut plan = CodeEnsemblePlan::paper();
+    plan.validate().unwrap();
+    plan.projector_columns = 1;
+    assert_eq!(
+        plan.validate(),
+        Err(CodeEnsembleError::Columns {
+            projector_columns: 1
+        })
+    );
+    plan = CodeEnsemblePlan::paper();
+    plan.agreement_columns = 300;
+    assert!(plan
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("agreement_columns"));
+    plan = CodeEnsemblePlan::paper();
+    plan.min_contrast_dn = f32::NAN;
+    assert!(plan
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("min_contrast_dn"));
+    // The fingerprint follows every field and differs from the other methods'.
+    let base = CodeEnsemblePlan::paper().fingerprint();
+    assert_ne!(base, CodeEnsemblePlan::for_projector(767).fingerprint());
+    assert_ne!(base, PhaseShiftPlan::paper().fingerprint());
+    let mut other = CodeEnsemblePlan::paper();
+    other.agreement_columns = 2;
+    assert_ne!(base, other.fingerprint());
 }

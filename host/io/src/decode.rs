@@ -312,6 +312,8 @@ pub enum RowDecoder<'t> {
     MicroPhaseShift(fsm_core::MicroPhaseShiftPlan),
     /// Line scanning.
     LineScan(fsm_core::LineScanPlan),
+    /// Code Ensemble.
+    CodeEnsemble(fsm_core::CodeEnsemblePlan),
 }
 
 impl<'t> RowDecoder<'t> {
@@ -332,6 +334,7 @@ impl<'t> RowDecoder<'t> {
             MethodPlan::PhaseShift(p) => RowDecoder::PhaseShift(*p),
             MethodPlan::MicroPhaseShift(p) => RowDecoder::MicroPhaseShift(*p),
             MethodPlan::LineScan(p) => RowDecoder::LineScan(*p),
+            MethodPlan::CodeEnsemble(p) => RowDecoder::CodeEnsemble(*p),
         })
     }
 
@@ -355,6 +358,7 @@ impl<'t> RowDecoder<'t> {
             RowDecoder::PhaseShift(p) => p.decode_row(row, pixels),
             RowDecoder::MicroPhaseShift(p) => p.decode_row(row, pixels),
             RowDecoder::LineScan(p) => p.decode_row(row, pixels),
+            RowDecoder::CodeEnsemble(p) => p.decode_row(row, pixels),
         }
     }
 }

@@ -150,6 +150,16 @@ pub enum ManifestPattern {
         /// The lit column.
         column: u32,
     },
+    /// Code Ensemble: bit `bit` of the code `code` (`conventional Gray`, `long-run Gray`,
+    /// `XOR-04`, `XOR-02`), or its inverse.
+    CodeBit {
+        /// The code's name.
+        code: String,
+        /// Pattern bit (0 = the Gray codes' most significant).
+        bit: u8,
+        /// Whether this is the bit's inverse.
+        inverse: bool,
+    },
 }
 
 /// One image of the set.
@@ -226,6 +236,14 @@ pub fn describe_frame(plan: &MethodPlan, frame: usize) -> ManifestPattern {
             ManifestPattern::PhaseFringe {
                 period_columns: p.periods()[f] as f64,
                 offset_turns: offset,
+            }
+        }
+        MethodPlan::CodeEnsemble(p) => {
+            let (code, bit, inverse) = p.frame(frame).expect("frame within the sequence");
+            ManifestPattern::CodeBit {
+                code: code.name().to_owned(),
+                bit: bit as u8,
+                inverse,
             }
         }
         MethodPlan::LineScan(_) => match frame {

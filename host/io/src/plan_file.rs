@@ -4,7 +4,7 @@
 //!
 //! A plan file is the serde form of `ScanPlan` with one extra top-level key, `format_version`.
 //! A baseline's plan file has `format_version` and one table named for its method
-//! (`[phase_shift]`, `[micro_phase_shift]` or `[line_scan]`) holding the serde form of its plan.
+//! (`[phase_shift]`, `[micro_phase_shift]`, `[code_ensemble]` or `[line_scan]`) holding the serde form of its plan.
 //! Reading goes through a generic value tree so that the version is checked before anything
 //! else, unknown keys are reported (a misspelt threshold must not silently fall back to
 //! nothing) and every type error names its field path (`band.count`, `method.Efsm.block_width`).
@@ -14,8 +14,8 @@ use std::fmt;
 use std::path::Path;
 
 use fsm_core::{
-    GroupCount, LineScanPlan, MicroPhaseShiftPlan, PatternSequence, PhaseShiftPlan, PlanError,
-    ScanPlan,
+    CodeEnsemblePlan, GroupCount, LineScanPlan, MicroPhaseShiftPlan, PatternSequence,
+    PhaseShiftPlan, PlanError, ScanPlan,
 };
 use serde_json::Value;
 
@@ -108,6 +108,8 @@ pub enum MethodPlan {
     MicroPhaseShift(MicroPhaseShiftPlan),
     /// Line scanning.
     LineScan(LineScanPlan),
+    /// Code Ensemble.
+    CodeEnsemble(CodeEnsemblePlan),
 }
 
 impl From<&ScanPlan> for MethodPlan {
@@ -117,7 +119,12 @@ impl From<&ScanPlan> for MethodPlan {
 }
 
 /// The table names of the baselines' plan files, in [`MethodPlan`] order.
-pub const BASELINE_TABLES: [&str; 3] = ["phase_shift", "micro_phase_shift", "line_scan"];
+pub const BASELINE_TABLES: [&str; 4] = [
+    "phase_shift",
+    "micro_phase_shift",
+    "line_scan",
+    "code_ensemble",
+];
 
 impl MethodPlan {
     /// The patterns the plan shows.
@@ -127,10 +134,11 @@ impl MethodPlan {
             MethodPlan::PhaseShift(p) => p,
             MethodPlan::MicroPhaseShift(p) => p,
             MethodPlan::LineScan(p) => p,
+            MethodPlan::CodeEnsemble(p) => p,
         }
     }
 
-    /// The method's short name in tables and summaries: BFSM, EFSM, PS, MPS or LS.
+    /// The method's short name in tables and summaries: BFSM, EFSM, PS, MPS, LS or CE.
     pub fn name(&self) -> &'static str {
         match self {
             MethodPlan::Fsm(p) => match p.method {
@@ -140,6 +148,7 @@ impl MethodPlan {
             MethodPlan::PhaseShift(_) => "PS",
             MethodPlan::MicroPhaseShift(_) => "MPS",
             MethodPlan::LineScan(_) => "LS",
+            MethodPlan::CodeEnsemble(_) => "CE",
         }
     }
 
@@ -150,6 +159,7 @@ impl MethodPlan {
             MethodPlan::PhaseShift(_) => Some(BASELINE_TABLES[0]),
             MethodPlan::MicroPhaseShift(_) => Some(BASELINE_TABLES[1]),
             MethodPlan::LineScan(_) => Some(BASELINE_TABLES[2]),
+            MethodPlan::CodeEnsemble(_) => Some(BASELINE_TABLES[3]),
         }
     }
 
@@ -167,6 +177,9 @@ impl MethodPlan {
             MethodPlan::LineScan(p) => p
                 .validate()
                 .map_err(|e| baseline(BASELINE_TABLES[2], e.to_string())),
+            MethodPlan::CodeEnsemble(p) => p
+                .validate()
+                .map_err(|e| baseline(BASELINE_TABLES[3], e.to_string())),
         }
     }
 
@@ -213,6 +226,10 @@ impl MethodPlan {
             MethodPlan::LineScan(p) => {
                 format!("dark, white, {} lines", p.projector_columns)
             }
+            MethodPlan::CodeEnsemble(p) => format!(
+                "{} Code Ensemble binary patterns (4 codes × 10 bits, each with its inverse)",
+                p.sequence_len()
+            ),
         }
     }
 
@@ -379,6 +396,11 @@ pub fn render_method_plan(plan: &MethodPlan, syntax: PlanSyntax) -> String {
         format_version: u64,
         line_scan: &'a LineScanPlan,
     }
+    #[derive(Serialize)]
+    struct CodeEnsemble<'a> {
+        format_version: u64,
+        code_ensemble: &'a CodeEnsemblePlan,
+    }
     fn text(file: &impl Serialize, syntax: PlanSyntax) -> String {
         match syntax {
             PlanSyntax::Toml => toml::to_string(file).expect("a plan always has a TOML form"),
@@ -417,6 +439,13 @@ pub fn render_method_plan(plan: &MethodPlan, syntax: PlanSyntax) -> String {
             &LineScan {
                 format_version,
                 line_scan: p,
+            },
+            syntax,
+        ),
+        MethodPlan::CodeEnsemble(p) => text(
+            &CodeEnsemble {
+                format_version,
+                code_ensemble: p,
             },
             syntax,
         ),
@@ -538,7 +567,8 @@ fn plan_from_tree(mut tree: Value) -> Result<MethodPlan, PlanFileError> {
             match i {
                 0 => MethodPlan::PhaseShift(deserialize_checked(body, &prefix)?),
                 1 => MethodPlan::MicroPhaseShift(deserialize_checked(body, &prefix)?),
-                _ => MethodPlan::LineScan(deserialize_checked(body, &prefix)?),
+                2 => MethodPlan::LineScan(deserialize_checked(body, &prefix)?),
+                _ => MethodPlan::CodeEnsemble(deserialize_checked(body, &prefix)?),
             }
         }
     };

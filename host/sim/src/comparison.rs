@@ -10,7 +10,9 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use fsm_core::{GroupCount, LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
+use fsm_core::{
+    CodeEnsemblePlan, GroupCount, LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan,
+};
 use fsm_io::image_files::write_png_gray8;
 use fsm_io::map_picture::{write_map_png, Palette, Scale};
 use fsm_io::outputs::write_file;
@@ -156,7 +158,8 @@ pub struct Report {
 
 /// The compared methods' plans: the paper's BFSM and EFSM (cB 64, two groups) decoded by the
 /// cosine search; the same captures decoded by CLEAN on the zero-padded DFT (as before the
-/// cosine search); phase shift + Gray code; Micro Phase Shifting ("16–15", 17 patterns); line
+/// cosine search); phase shift + Gray code; Micro Phase Shifting ("16–15", 17 patterns); Code
+/// Ensemble (4 binary codes, 80 patterns); line
 /// scanning with as many patterns as BFSM (paper Fig. 13); the EFSM patterns decoded by the
 /// paper's local maxima (as a camera can at frame rate). The FSM and line-scan plans state the
 /// simulated camera's sensor, as a user states theirs.
@@ -169,6 +172,7 @@ pub struct Plans {
     phase_shift: PhaseShiftPlan,
     micro_phase_shift: MicroPhaseShiftPlan,
     line_scan: LineScanPlan,
+    code_ensemble: CodeEnsemblePlan,
 }
 
 impl Plans {
@@ -191,11 +195,12 @@ impl Plans {
                 sensor,
                 ..LineScanPlan::paper()
             },
+            code_ensemble: CodeEnsemblePlan::paper(),
         }
     }
 
     /// Every method with its name in the tables, in the report's order.
-    pub fn methods(&self) -> [(&'static str, MethodPlan); 8] {
+    pub fn methods(&self) -> [(&'static str, MethodPlan); 9] {
         [
             ("BFSM", MethodPlan::Fsm(self.bfsm)),
             ("EFSM", MethodPlan::Fsm(self.efsm)),
@@ -203,6 +208,7 @@ impl Plans {
             ("EFSM-CLEAN", MethodPlan::Fsm(self.efsm_clean)),
             ("PS", MethodPlan::PhaseShift(self.phase_shift)),
             ("MPS", MethodPlan::MicroPhaseShift(self.micro_phase_shift)),
+            ("CE", MethodPlan::CodeEnsemble(self.code_ensemble)),
             ("LS", MethodPlan::LineScan(self.line_scan)),
             ("EFSM-fast", MethodPlan::Fsm(self.efsm_fast)),
         ]

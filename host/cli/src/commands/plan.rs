@@ -4,7 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
-use fsm_core::{GroupCount, LineScanPlan, Method, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan};
+use fsm_core::{
+    CodeEnsemblePlan, GroupCount, LineScanPlan, Method, MicroPhaseShiftPlan, PhaseShiftPlan,
+    ScanPlan,
+};
 use fsm_io::plan_file::{self, MethodPlan, PlanSyntax, Preset};
 use fsm_io::stack::sequence_summary;
 use fsm_io::{Error, Result};
@@ -21,7 +24,8 @@ use fsm_io::{Error, Result};
 ///
 /// --method derives every dependent field from the projector's width: BFSM's band (one fringe
 /// per column), EFSM's band and DFT size from the block width, phase shift's Gray-code bits,
-/// Micro Phase Shifting's periods (15 over 14-18 columns), line scanning's frames. Overrides
+/// Micro Phase Shifting's periods (15 over 14-18 columns), line scanning's frames, Code
+/// Ensemble's codeword width (10-bit codes; wider projectors share codewords). Overrides
 /// use the file's dotted field names (see the README, "Plan files"); e.g.
 /// `--set band.count=512`, `--set method.Efsm.block_width=32`, `--set references.white=false`,
 /// `--set line_scan.noise_factor=8`.
@@ -34,7 +38,7 @@ pub struct Args {
     preset: Option<PresetName>,
     /// Make a plan of this method for a projector of --projector-columns columns: BFSM, EFSM,
     /// or one of the methods the paper compares them with (phase shift + Gray code, Micro Phase
-    /// Shifting, line scanning; see docs/comparison.md).
+    /// Shifting, Code Ensemble, line scanning; see docs/comparison.md).
     #[arg(
         long,
         value_enum,
@@ -101,6 +105,8 @@ enum MethodName {
     PhaseShift,
     /// Micro Phase Shifting (Gupta & Nayar): 15 periods over 14-18 columns, 17 patterns.
     MicroPhaseShift,
+    /// Code Ensemble (Gupta et al.): four 10-bit binary codes with their inverses, 80 patterns.
+    CodeEnsemble,
     /// Line scanning: one column lit per pattern.
     LineScan,
 }
@@ -123,6 +129,9 @@ impl MethodName {
             }
             MethodName::MicroPhaseShift => {
                 MethodPlan::MicroPhaseShift(MicroPhaseShiftPlan::spread(columns, 16.0, 4.0, 15))
+            }
+            MethodName::CodeEnsemble => {
+                MethodPlan::CodeEnsemble(CodeEnsemblePlan::for_projector(columns))
             }
             MethodName::LineScan => MethodPlan::LineScan(LineScanPlan {
                 projector_columns: columns,
@@ -248,6 +257,25 @@ fn print_summary(plan: &MethodPlan) {
                 p.projector_columns
             );
             println!("  detector:      {:?}", p.detector);
+        }
+        MethodPlan::CodeEnsemble(p) => {
+            println!("  method:        Code Ensemble (a method FSM is compared with)");
+            let per_codeword = p.projector_columns as f32 / 1024.0;
+            if per_codeword > 1.0 {
+                println!(
+                    "  projector:     {} columns, {per_codeword:.3} per codeword",
+                    p.projector_columns
+                );
+            } else {
+                println!("  projector:     {} columns", p.projector_columns);
+            }
+            println!(
+                "  codes:         conventional Gray, long-run Gray, XOR-04, XOR-02 (10 bits each)"
+            );
+            println!(
+                "  agreement:     two codes within {} codeword(s)",
+                p.agreement_columns
+            );
         }
     }
     if !matches!(plan, MethodPlan::Fsm(_)) {

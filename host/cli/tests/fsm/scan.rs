@@ -213,6 +213,7 @@ fn the_demo_reports_the_papers_comparison() {
         (17, patterns("BFSM")),
         "MPS's 16-15 group, LS with as many patterns as BFSM (Fig. 13)"
     );
+    assert_eq!(patterns("CE"), 80, "Code Ensemble's 4 codes x 10 bits x 2");
     // Points more than 1 mm from the true surface, over all of plane_mirror's points: BFSM's
     // are few (virtual images the projector test cannot see), phase shift's are many.
     let wrong = |name: &str| {

@@ -1,0 +1,469 @@
+//! Code Ensemble ("CE", Gupta, Agrawal, Veeraraghavan & Narasimhan, CVPR 2011; the paper's
+//! ref. \[19\] and its 80-image comparison in §VII): four 10-bit binary codes, each built to
+//! survive one kind of indirect light, decoded separately; a pixel keeps the column two of them
+//! agree on, and no column where none agree.
+//!
+//! | code | what its stripes are | what it survives |
+//! |---|---|---|
+//! | [`Code::Gray`] | conventional (reflected) Gray code, stripes 2–512 wide | defocus and sub-surface scattering: most of its stripes are wide |
+//! | [`Code::LongRun`] | a Gray code whose stripes are 7 to 18 columns wide | blur and defocus |
+//! | [`Code::Xor2`] | Gray bits 0–8 XORed with bit 9 (stripes 1–2 wide) | long-range interreflection |
+//! | [`Code::Xor4`] | Gray bits 0–7 XORed with bit 8 (stripes 2–4 wide) | long-range interreflection |
+//!
+//! A coarse stripe lights half the scene at once, so a pixel in the dark half can receive more
+//! indirect light than a lit one: its bit flips. An XOR pattern lights every other narrow
+//! stripe, so the indirect light is about the same in a pattern and its inverse, and the
+//! comparison of the two survives it; XORing the decoded bit with the decoded base bit gives
+//! back the Gray bit (the logical coding of the CE paper).
+//!
+//! Frames: for each code in [`CODES`] order, for each bit (0 = most significant for the Gray
+//! and XOR codes), the pattern and then its inverse: `4 × 10 × 2 = 80` frames, no reference
+//! frames. A bit reads 1 where the pattern's sample exceeds its inverse's.
+//!
+//! Choices the CE paper leaves to its implementation (`docs/comparison.md`):
+//! - **The long-run code.** The CE paper uses a "max min-SW" Gray code (Goddyn & Gvozdjak), whose
+//!   narrowest stripe is 8 columns, the bound for 10 bits. Ours is built in [`long_run_code`] by
+//!   the composition of Goddyn, Lawrence & Nemeth (1988, Theorem 1) from two 5-bit codes; its
+//!   narrowest stripe is 7 columns (a test checks the figure).
+//! - **Agreement.** Two codes agree when their columns differ by at most
+//!   [`CodeEnsemblePlan::agreement_columns`]; among agreeing pairs the column is taken with the
+//!   precedence of the authors' decoder (the long-run code first, then XOR-04, then XOR-02).
+//! - **No spatial filling.** The authors median-filter each code's map and fill pixels where no
+//!   two codes agree from their neighbours; here a pixel is decoded from its own samples, and one
+//!   without agreement has no candidate (a point is right or absent).
+//! - **Shadow.** A pixel whose mean `|pattern − inverse|` is at most `min_contrast_dn` is dark.
+//! - **Projectors wider than 1024 columns** share codewords: codeword `k` covers the columns
+//!   `c` with `⌊1024·c / cmax⌋ = k`, and the decoded column is their centre.
+
+use core::fmt;
+
+use super::{PatternSequence, PixelDecoder};
+use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+use crate::plan::sequence::Group;
+
+/// Bits of every code.
+pub const BITS: usize = 10;
+
+/// Codewords of every code: `2^BITS`.
+pub const CODEWORDS: usize = 1 << BITS;
+
+/// Frames of one code: each bit's pattern and its inverse.
+pub const FRAMES_PER_CODE: usize = 2 * BITS;
+
+/// The four codes, in frame order.
+pub const CODES: [Code; 4] = [Code::Gray, Code::LongRun, Code::Xor4, Code::Xor2];
+
+/// One of the ensemble's four binary codes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Code {
+    /// Conventional reflected Gray code.
+    Gray,
+    /// A Gray code with long runs ([`long_run_code`]).
+    LongRun,
+    /// Gray bits 0–7 XORed with Gray bit 8 (the base), bits 8 and 9 as they are.
+    Xor4,
+    /// Gray bits 0–8 XORed with Gray bit 9 (the base), bit 9 as it is.
+    Xor2,
+}
+
+impl Code {
+    /// The code's name in the CE paper.
+    pub fn name(self) -> &'static str {
+        match self {
+            Code::Gray => "conventional Gray",
+            Code::LongRun => "long-run Gray",
+            Code::Xor4 => "XOR-04",
+            Code::Xor2 => "XOR-02",
+        }
+    }
+
+    /// The base bit an XOR code's coarser bits are XORed with.
+    fn xor_base(self) -> Option<usize> {
+        match self {
+            Code::Xor4 => Some(BITS - 2),
+            Code::Xor2 => Some(BITS - 1),
+            Code::Gray | Code::LongRun => None,
+        }
+    }
+
+    /// The `BITS` pattern bits (bit `b` of the result is pattern `b`) of codeword index `k`.
+    pub fn patterns(self, k: usize) -> u16 {
+        match self {
+            Code::LongRun => LONG_RUN.codeword[k % CODEWORDS],
+            _ => {
+                let gray = gray_msb_first(k % CODEWORDS);
+                match self.xor_base() {
+                    Some(base) => {
+                        let mask = (1u16 << base) - 1;
+                        let base_bit = (gray >> base) & 1;
+                        gray ^ (mask * base_bit)
+                    }
+                    None => gray,
+                }
+            }
+        }
+    }
+
+    /// The codeword index whose patterns read `bits` (bit `b` = pattern `b` lit).
+    pub fn index(self, bits: u16) -> usize {
+        let bits = bits & (CODEWORDS as u16 - 1);
+        match self {
+            Code::LongRun => LONG_RUN.index[bits as usize] as usize,
+            _ => {
+                let gray = match self.xor_base() {
+                    Some(base) => {
+                        let mask = (1u16 << base) - 1;
+                        bits ^ (mask * ((bits >> base) & 1))
+                    }
+                    None => bits,
+                };
+                gray_index_msb_first(gray)
+            }
+        }
+    }
+}
+
+/// The reflected Gray code of `k` with its most significant bit as pattern 0.
+fn gray_msb_first(k: usize) -> u16 {
+    let gray = (k ^ (k >> 1)) as u16;
+    reverse_bits(gray)
+}
+
+/// The inverse of [`gray_msb_first`].
+fn gray_index_msb_first(bits: u16) -> usize {
+    let mut k = reverse_bits(bits) as usize;
+    let mut shift = 1;
+    while shift < BITS {
+        k ^= k >> shift;
+        shift <<= 1;
+    }
+    k
+}
+
+/// `BITS`-bit reversal: pattern 0 shows the most significant bit.
+fn reverse_bits(v: u16) -> u16 {
+    v.reverse_bits() >> (16 - BITS)
+}
+
+/// A long-run Gray code: every codeword, and every codeword's index.
+pub struct LongRunCode {
+    /// Codeword `k` (bit `b` = pattern `b`).
+    pub codeword: [u16; CODEWORDS],
+    /// The index of each codeword.
+    pub index: [u16; CODEWORDS],
+}
+
+/// The ensemble's long-run Gray code, built once at compile time.
+pub static LONG_RUN: LongRunCode = long_run_code();
+
+/// The word of `s` a's and `t` b's, spread evenly (`P` of Goddyn, Lawrence & Nemeth): true for an
+/// `a`. Place `i` is an `a` when the b's so far are at least `t/s` times the a's so far plus one.
+const fn spread<const N: usize>(s: usize, t: usize) -> [bool; N] {
+    let mut word = [false; N];
+    let (mut a, mut b, mut i) = (0, 0, 0);
+    while i < N {
+        if b * s >= t * (a + 1) {
+            word[i] = true;
+            a += 1;
+        } else {
+            b += 1;
+        }
+        i += 1;
+    }
+    word
+}
+
+/// Builds the ensemble's long-run code from its transition sequence (the bit that changes after
+/// each codeword), by Goddyn, Lawrence & Nemeth's compositions: a 5-bit code of runs ≥ 4 from
+/// two 2-bit codes and a 1-bit code (their Theorem 2, `s = t = 1`), then the 10-bit code from two
+/// of those, interleaved by a word of 17 a's and 15 b's repeated 32 times (Theorem 1). The
+/// result is a cyclic Gray code: every codeword once, one bit changing per step.
+pub const fn long_run_code() -> LongRunCode {
+    // 2-bit and 1-bit cyclic codes: their transition sequences.
+    const TWO: [u8; 4] = [0, 1, 0, 1];
+    const ONE: [u8; 2] = [0, 0];
+    // Theorem 2 (n = m = 2, r = 1): Q = P repeated 2^n times with its last b made a c,
+    // Z = Q repeated 2^m times; a's step through A, b's through B (+n), c's through C (+n+m).
+    let p: [bool; 2] = spread(1, 1);
+    // Q's last b: P holds t = 1 b, so it is in Q's last copy of P.
+    let last_b = if p[1] { 6 } else { 7 };
+    let mut five = [0u8; 32];
+    let (mut ia, mut ib, mut ic, mut i) = (0, 0, 0, 0);
+    while i < 32 {
+        let q = i % 8; // place within Q
+        five[i] = if p[q % 2] {
+            ia += 1;
+            TWO[(ia - 1) % 4]
+        } else if q == last_b {
+            ic += 1;
+            ONE[(ic - 1) % 2] + 4
+        } else {
+            ib += 1;
+            TWO[(ib - 1) % 4] + 2
+        };
+        i += 1;
+    }
+    // Theorem 1 (n = m = 5, s = 17, t = 15).
+    let word: [bool; 32] = spread(17, 15);
+    let mut transitions = [0u8; CODEWORDS];
+    let (mut ia, mut ib, mut i) = (0, 0, 0);
+    while i < CODEWORDS {
+        transitions[i] = if word[i % 32] {
+            ia += 1;
+            five[(ia - 1) % 32]
+        } else {
+            ib += 1;
+            five[(ib - 1) % 32] + 5
+        };
+        i += 1;
+    }
+    let mut code = LongRunCode {
+        codeword: [0; CODEWORDS],
+        index: [0; CODEWORDS],
+    };
+    let mut word = 0u16;
+    let mut k = 0;
+    while k < CODEWORDS {
+        code.codeword[k] = word;
+        code.index[word as usize] = k as u16;
+        word ^= 1 << transitions[k];
+        k += 1;
+    }
+    code
+}
+
+/// A Code Ensemble scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct CodeEnsemblePlan {
+    /// Projector columns `cmax`.
+    pub projector_columns: u16,
+    /// Two codes agree when their columns differ by at most this many codewords.
+    pub agreement_columns: u16,
+    /// A pixel's mean `|pattern − inverse|` must exceed this (sensor DN) to be decoded.
+    pub min_contrast_dn: f32,
+}
+
+/// A violated Code Ensemble plan rule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(missing_docs)] // each field is the value the variant reports
+pub enum CodeEnsembleError {
+    /// At least 2 columns.
+    Columns { projector_columns: u16 },
+    /// Agreement within a quarter of the codewords is no agreement.
+    Agreement { agreement_columns: u16 },
+    /// A threshold must be a finite number, not below 0.
+    Threshold { value: f32 },
+}
+
+impl fmt::Display for CodeEnsembleError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            CodeEnsembleError::Columns { projector_columns } => write!(
+                f,
+                "projector_columns = {projector_columns}: at least 2 columns are needed"
+            ),
+            CodeEnsembleError::Agreement { agreement_columns } => write!(
+                f,
+                "agreement_columns = {agreement_columns}: must be at most {}",
+                CODEWORDS / 4
+            ),
+            CodeEnsembleError::Threshold { value } => {
+                write!(
+                    f,
+                    "min_contrast_dn = {value}: must be a finite number, not below 0"
+                )
+            }
+        }
+    }
+}
+
+impl CodeEnsemblePlan {
+    /// The ensemble on a projector of `columns` columns, codes agreeing within one codeword (a
+    /// pixel on a stripe edge may read either side of it).
+    pub fn for_projector(columns: u16) -> Self {
+        CodeEnsemblePlan {
+            projector_columns: columns,
+            agreement_columns: 1,
+            min_contrast_dn: 2.0,
+        }
+    }
+
+    /// The paper's comparison: the 768 projector columns FSM codes.
+    pub fn paper() -> Self {
+        Self::for_projector(768)
+    }
+
+    /// Checks the plan's rules.
+    pub fn validate(&self) -> Result<(), CodeEnsembleError> {
+        if self.projector_columns < 2 {
+            return Err(CodeEnsembleError::Columns {
+                projector_columns: self.projector_columns,
+            });
+        }
+        if self.agreement_columns as usize > CODEWORDS / 4 {
+            return Err(CodeEnsembleError::Agreement {
+                agreement_columns: self.agreement_columns,
+            });
+        }
+        let value = self.min_contrast_dn;
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(CodeEnsembleError::Threshold { value });
+        }
+        Ok(())
+    }
+
+    /// Frames in the sequence: 80.
+    pub fn sequence_len(&self) -> usize {
+        CODES.len() * FRAMES_PER_CODE
+    }
+
+    /// What frame `frame` shows: its code, bit, and whether it is the inverse.
+    pub fn frame(&self, frame: usize) -> Option<(Code, usize, bool)> {
+        (frame < self.sequence_len()).then(|| {
+            let code = CODES[frame / FRAMES_PER_CODE];
+            let within = frame % FRAMES_PER_CODE;
+            (code, within / 2, within % 2 == 1)
+        })
+    }
+
+    /// The codeword index of projector column `column`.
+    pub fn codeword_of(&self, column: u32) -> usize {
+        let columns = self.projector_columns as usize;
+        if columns <= CODEWORDS {
+            column as usize
+        } else {
+            column as usize * CODEWORDS / columns
+        }
+    }
+
+    /// The centre of the columns codeword `k` covers, or `None` past the projector.
+    pub fn column_of(&self, k: usize) -> Option<f32> {
+        let columns = self.projector_columns as usize;
+        if columns <= CODEWORDS {
+            return (k < columns).then_some(k as f32);
+        }
+        // Columns c with ⌊CODEWORDS·c / columns⌋ = k: from ⌈k·columns/CODEWORDS⌉ to
+        // ⌈(k+1)·columns/CODEWORDS⌉ − 1.
+        let first = (k * columns).div_ceil(CODEWORDS);
+        let last = ((k + 1) * columns).div_ceil(CODEWORDS) - 1;
+        (k < CODEWORDS).then_some(0.5 * (first + last) as f32)
+    }
+
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `CE`: the identity row dumps
+    /// of its captures carry.
+    pub fn fingerprint(&self) -> u64 {
+        let mut bytes = [0u8; 10];
+        bytes[..2].copy_from_slice(b"CE");
+        bytes[2..4].copy_from_slice(&self.projector_columns.to_le_bytes());
+        bytes[4..6].copy_from_slice(&self.agreement_columns.to_le_bytes());
+        bytes[6..10].copy_from_slice(&self.min_contrast_dn.to_le_bytes());
+        crate::wire::crc64(&bytes)
+    }
+
+    /// The consistency rule: the column two codes agree on, in the authors' precedence, given
+    /// each code's codeword index in [`CODES`] order.
+    pub fn agreed(&self, index: [usize; 4]) -> Option<usize> {
+        let [gray, long_run, xor4, xor2] = index;
+        let near = |a: usize, b: usize| a.abs_diff(b) <= self.agreement_columns as usize;
+        // Highest precedence first (the authors assign the cases in the reverse order).
+        let all = near(gray, long_run)
+            && near(gray, xor4)
+            && near(gray, xor2)
+            && near(long_run, xor4)
+            && near(long_run, xor2)
+            && near(xor4, xor2);
+        if all {
+            Some(long_run)
+        } else if near(xor4, gray) {
+            Some(xor4)
+        } else if near(xor4, long_run) {
+            Some(long_run)
+        } else if near(xor2, gray) {
+            Some(xor2)
+        } else if near(xor2, long_run) || near(gray, long_run) {
+            Some(long_run)
+        } else if near(xor2, xor4) {
+            Some(xor4)
+        } else {
+            None
+        }
+    }
+}
+
+impl PatternSequence for CodeEnsemblePlan {
+    fn projector_columns(&self) -> u16 {
+        self.projector_columns
+    }
+
+    fn frame_count(&self) -> usize {
+        self.sequence_len()
+    }
+
+    fn frame_intensity(&self, frame: usize, column: u32) -> f32 {
+        if column >= self.projector_columns as u32 {
+            return 0.0;
+        }
+        let Some((code, bit, inverse)) = self.frame(frame) else {
+            return 0.0;
+        };
+        let lit = (code.patterns(self.codeword_of(column)) >> bit) & 1 == 1;
+        (lit != inverse) as u8 as f32
+    }
+
+    fn fingerprint(&self) -> u64 {
+        CodeEnsemblePlan::fingerprint(self)
+    }
+}
+
+impl PixelDecoder for CodeEnsemblePlan {
+    /// One candidate (the agreed column, the mean `|pattern − inverse|`), or none when the
+    /// pixel is dark, no two codes agree, or the agreed column is outside `range`.
+    fn decode_pixel<const K: usize>(
+        &self,
+        samples: impl Fn(usize) -> u16,
+        saturation: u16,
+        range: &ColumnRange,
+        out: &mut PixelCandidates<K>,
+    ) {
+        out.clear();
+        let mut index = [0usize; 4];
+        let mut contrast = 0u32;
+        let mut saturated = false;
+        for (c, code) in CODES.iter().enumerate() {
+            let mut bits = 0u16;
+            for bit in 0..BITS {
+                let frame = c * FRAMES_PER_CODE + 2 * bit;
+                let (pattern, inverse) = (samples(frame), samples(frame + 1));
+                saturated |= pattern >= saturation || inverse >= saturation;
+                contrast += pattern.abs_diff(inverse) as u32;
+                bits |= ((pattern > inverse) as u16) << bit;
+            }
+            index[c] = code.index(bits);
+        }
+        if saturated {
+            out.flags.insert(PixelFlags::SATURATED);
+        }
+        let contrast = contrast as f32 / (CODES.len() * BITS) as f32;
+        if contrast <= self.min_contrast_dn {
+            return;
+        }
+        let Some(column) = self.agreed(index).and_then(|k| self.column_of(k)) else {
+            return;
+        };
+        if range.contains(column) {
+            let candidate = Candidate {
+                column,
+                amplitude: contrast,
+                groups: GroupSet::only(Group::One),
+                group: Group::One,
+                peak: 0,
+                block: 0,
+            };
+            out.offer(candidate, 0.0, |old, _| *old);
+        }
+    }
+}
