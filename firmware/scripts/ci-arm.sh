@@ -139,7 +139,7 @@ check_refusal() { # name plan dump expected-message
         bad "$1: exit code $rc (want 3, an ERROR line with '$4', no output file)"
     fi
 }
-check_refusal "dump of another plan" other.plan small.dump "plan_fingerprint"
+check_refusal "dump of another plan" other.plan small.dump "pattern_fingerprint"
 check_refusal "truncated dump" small.plan truncated.dump "whole number"
 
 # 4. Instruction counts are deterministic: two runs at shift 4 and one at shift 6 agree.

@@ -2,7 +2,7 @@
 //! behind it. Nothing panics; a record that decodes round-trips.
 #![no_main]
 
-use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_core::wire::row_dump::{self, RecordedWith, RowDumpHeader};
 use fsm_core::wire::{crc32, HEADER_LEN};
 use libfuzzer_sys::fuzz_target;
 
@@ -20,7 +20,12 @@ fuzz_target!(|data: &[u8]| {
     }
     let header = RowDumpHeader {
         bit_depth: 1 + data[0] % 16,
-        plan_fingerprint: 7,
+        // Either version: bit 7 of the first byte (bit depth reads the low 4).
+        recorded_with: if data[0] & 0x80 == 0 {
+            RecordedWith::Patterns(7)
+        } else {
+            RecordedWith::Plan(7)
+        },
         width: 1 + data[1] as u32 % 8,
         height: 1 + data[2] as u32 % 8,
         frames: 1 + data[3] as u32 % 8,

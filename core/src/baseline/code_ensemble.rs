@@ -364,6 +364,13 @@ impl CodeEnsemblePlan {
         crate::wire::crc64(&bytes)
     }
 
+    /// The fingerprint of the frames alone ([`crate::wire::pattern_fingerprint`], tag
+    /// `CE`): the columns (the four codes are fixed); not the decoder's
+    /// `agreement_columns` and `min_contrast_dn`.
+    pub fn pattern_fingerprint(&self) -> u64 {
+        crate::wire::pattern_fingerprint(b"CE", &self.projector_columns.to_le_bytes())
+    }
+
     /// The consistency rule: the column two codes agree on, in the authors' precedence, given
     /// each code's codeword index in [`CODES`] order.
     pub fn agreed(&self, index: [usize; 4]) -> Option<usize> {
@@ -416,6 +423,10 @@ impl PatternSequence for CodeEnsemblePlan {
 
     fn fingerprint(&self) -> u64 {
         CodeEnsemblePlan::fingerprint(self)
+    }
+
+    fn pattern_fingerprint(&self) -> u64 {
+        CodeEnsemblePlan::pattern_fingerprint(self)
     }
 }
 

@@ -177,6 +177,13 @@ impl LineScanPlan {
         crate::wire::crc64(&bytes)
     }
 
+    /// The fingerprint of the frames alone ([`crate::wire::pattern_fingerprint`], tag
+    /// `LS`): the columns (dark, white, one lit column per frame); not the
+    /// detector or its noise settings.
+    pub fn pattern_fingerprint(&self) -> u64 {
+        crate::wire::pattern_fingerprint(b"LS", &self.projector_columns.to_le_bytes())
+    }
+
     /// The sub-column offset of the peak at `j` (`v(j)` above the surroundings' level) of a
     /// light more than 3 columns wide at half height or not (`wide`); the Gaussian needs both
     /// neighbours above `floor` (a few noise RMS): the log of a neighbour lost in the noise
@@ -259,6 +266,10 @@ impl PatternSequence for LineScanPlan {
 
     fn fingerprint(&self) -> u64 {
         LineScanPlan::fingerprint(self)
+    }
+
+    fn pattern_fingerprint(&self) -> u64 {
+        LineScanPlan::pattern_fingerprint(self)
     }
 }
 

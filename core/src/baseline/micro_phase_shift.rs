@@ -182,6 +182,19 @@ impl MicroPhaseShiftPlan {
         }
         crate::wire::crc64(&bytes)
     }
+
+    /// The fingerprint of the frames alone ([`crate::wire::pattern_fingerprint`], tag
+    /// `MP`): the columns and the fringe periods; not the decoder's
+    /// `min_modulation_dn` and `max_code_residual`.
+    pub fn pattern_fingerprint(&self) -> u64 {
+        let mut fields = [0u8; 3 + 4 * MAX_FREQUENCIES];
+        fields[..2].copy_from_slice(&self.projector_columns.to_le_bytes());
+        fields[2] = self.frequencies;
+        for (i, p) in self.periods().iter().enumerate() {
+            fields[3 + 4 * i..7 + 4 * i].copy_from_slice(&p.to_le_bytes());
+        }
+        crate::wire::pattern_fingerprint(b"MP", &fields)
+    }
 }
 
 /// `cos(2π·turns)`, with `turns` reduced to `[0, 1)` in `f64` first so that large columns keep
@@ -213,6 +226,10 @@ impl PatternSequence for MicroPhaseShiftPlan {
 
     fn fingerprint(&self) -> u64 {
         MicroPhaseShiftPlan::fingerprint(self)
+    }
+
+    fn pattern_fingerprint(&self) -> u64 {
+        MicroPhaseShiftPlan::pattern_fingerprint(self)
     }
 }
 

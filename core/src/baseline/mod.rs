@@ -20,6 +20,7 @@ pub mod phase_shift;
 
 use crate::candidate::{ColumnRange, PixelCandidates};
 use crate::decoder::{Row, RowError};
+use crate::wire::PlanIdentity;
 
 /// A sequence of projected frames, each a value per projector column: what a simulator renders
 /// and a pattern writer draws, for FSM plans and the baselines alike.
@@ -35,8 +36,20 @@ pub trait PatternSequence {
     }
     /// Relative intensity in `[0, 1]` of frame `frame` at `column`.
     fn frame_intensity(&self, frame: usize, column: u32) -> f32;
-    /// Identity of the sequence, carried by row dumps of its captures.
+    /// Identity of the whole plan, frames and decoder settings: what candidate files of its
+    /// decodes carry.
     fn fingerprint(&self) -> u64;
+    /// Identity of the frames alone ([`crate::wire::pattern_fingerprint`]): what row dumps of
+    /// its captures carry, so that a plan with other decoder settings decodes them too.
+    fn pattern_fingerprint(&self) -> u64;
+    /// Every fingerprint of the plan.
+    fn identity(&self) -> PlanIdentity {
+        PlanIdentity {
+            patterns: self.pattern_fingerprint(),
+            plan: self.fingerprint(),
+            legacy_plan: None,
+        }
+    }
 }
 
 impl PatternSequence for crate::plan::ScanPlan {
@@ -59,6 +72,14 @@ impl PatternSequence for crate::plan::ScanPlan {
 
     fn fingerprint(&self) -> u64 {
         crate::plan::ScanPlan::fingerprint(self)
+    }
+
+    fn pattern_fingerprint(&self) -> u64 {
+        crate::plan::ScanPlan::pattern_fingerprint(self)
+    }
+
+    fn identity(&self) -> PlanIdentity {
+        crate::plan::ScanPlan::identity(self)
     }
 }
 

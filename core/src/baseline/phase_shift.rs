@@ -210,6 +210,18 @@ impl PhaseShiftPlan {
         crate::wire::crc64(&bytes)
     }
 
+    /// The fingerprint of the frames alone ([`crate::wire::pattern_fingerprint`], tag
+    /// `PS`): the columns, the fringe period, the steps and the Gray code bits; not
+    /// `min_modulation_dn`, which only the decoder reads.
+    pub fn pattern_fingerprint(&self) -> u64 {
+        let mut fields = [0u8; 6];
+        fields[..2].copy_from_slice(&self.projector_columns.to_le_bytes());
+        fields[2..4].copy_from_slice(&self.period_columns.to_le_bytes());
+        fields[4] = self.steps;
+        fields[5] = self.bits;
+        crate::wire::pattern_fingerprint(b"PS", &fields)
+    }
+
     /// `(sin θ_k, cos θ_k)` of offset `k`, `θ_k = 2πk/steps`.
     fn offset(&self, k: usize) -> (f32, f32) {
         let a = core::f64::consts::TAU * k as f64 / self.steps as f64;
@@ -237,6 +249,10 @@ impl PatternSequence for PhaseShiftPlan {
 
     fn fingerprint(&self) -> u64 {
         PhaseShiftPlan::fingerprint(self)
+    }
+
+    fn pattern_fingerprint(&self) -> u64 {
+        PhaseShiftPlan::pattern_fingerprint(self)
     }
 }
 

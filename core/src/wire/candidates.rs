@@ -82,7 +82,7 @@ impl CandidateHeader {
 
     /// Reads and checks a header.
     pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
-        let mut r = open_header(WHAT, &MAGIC, VERSION, bytes)?;
+        let (_, mut r) = open_header(WHAT, &MAGIC, VERSION, bytes)?;
         let capacity = r.u16();
         let _reserved = r.u16();
         let header = CandidateHeader {

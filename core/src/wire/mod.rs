@@ -2,8 +2,8 @@
 //!
 //! | format | module | who writes it | who reads it |
 //! |---|---|---|---|
-//! | scan plan, 64 bytes, and its fingerprint | [`plan`] | host | camera, every file header |
-//! | raw temporal rows of a scan | [`row_dump`] | camera, simulator | `fsm decode` |
+//! | scan plan, 80 bytes, and its fingerprints ([`PlanIdentity`]) | [`plan`] | host | camera, every file header |
+//! | raw temporal rows of a scan, with the fingerprint of the patterns shown | [`row_dump`] | camera, simulator | `fsm decode` |
 //! | candidate rows | [`candidates`] | camera, `fsm decode` | `fsm scan`, tests |
 //!
 //! Readers never return part of a record as if it were whole: a short buffer, a wrong magic,
@@ -46,6 +46,45 @@ pub fn crc64(bytes: &[u8]) -> u64 {
     CRC64.checksum(bytes)
 }
 
+/// Bytes every pattern fingerprint's input starts with, before the method's 2-byte tag; no
+/// plan's bytes start so, so a pattern fingerprint never equals a plan fingerprint by design.
+const PATTERN_PREFIX: &[u8; 6] = b"FRAMES";
+
+/// The fingerprint of a pattern sequence: CRC-64/XZ of `FRAMES`, the method's 2-byte `tag`,
+/// then `fields`, the little-endian values the frames depend on (and nothing the decoder
+/// alone reads).
+pub fn pattern_fingerprint(tag: &[u8; 2], fields: &[u8]) -> u64 {
+    let mut digest = CRC64.digest();
+    digest.update(PATTERN_PREFIX);
+    digest.update(tag);
+    digest.update(fields);
+    digest.finalize()
+}
+
+/// The fingerprints a plan gives the files of its captures.
+///
+/// Row dumps and image stacks carry `patterns`: they record what was shown, so any plan with
+/// the same patterns decodes them, with any decoder settings. Candidate files carry `plan`:
+/// they record a decode, which depends on every setting.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PlanIdentity {
+    /// Fingerprint of the pattern sequence (the frames, in order).
+    pub patterns: u64,
+    /// Fingerprint of the whole plan: patterns and decoder settings.
+    pub plan: u64,
+    /// The plan fingerprint files written before plan version 2 carry, if it has one
+    /// ([`ScanPlan::legacy_fingerprint`](crate::plan::ScanPlan::legacy_fingerprint)).
+    pub legacy_plan: Option<u64>,
+}
+
+impl PlanIdentity {
+    /// Whether a file stating plan fingerprint `f` was made with this plan.
+    pub fn has_plan_fingerprint(&self, f: u64) -> bool {
+        f == self.plan || self.legacy_plan == Some(f)
+    }
+}
+
 /// What is wrong with some bytes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -59,7 +98,7 @@ pub enum WireError {
     },
     /// The bytes do not start with the format's magic.
     Magic { what: &'static str },
-    /// A version this build does not read.
+    /// A version this build does not read (it reads `1..=supported`).
     Version {
         what: &'static str,
         version: u16,
@@ -107,9 +146,13 @@ impl fmt::Display for WireError {
                 write!(f, "{what}: truncated, {needed} bytes needed, {got} present")
             }
             WireError::Magic { what } => write!(f, "{what}: not this format (wrong magic bytes)"),
+            WireError::Version { what, version, supported: 1 } => write!(
+                f,
+                "{what}: format version {version} is not supported (this build reads version 1)"
+            ),
             WireError::Version { what, version, supported } => write!(
                 f,
-                "{what}: format version {version} is not supported (this build reads version {supported})"
+                "{what}: format version {version} is not supported (this build reads versions 1 to {supported})"
             ),
             WireError::HeaderCrc { what, stored, computed } => write!(
                 f,
@@ -212,14 +255,15 @@ impl<'a> Writer<'a> {
 /// Length of the fixed file headers of [`row_dump`] and [`candidates`].
 pub const HEADER_LEN: usize = 64;
 
-/// Checks the magic, version, length and CRC shared by the 64-byte file headers; returns a
-/// reader positioned after the version and header-length fields (offset 12).
+/// Checks the magic, version (`1..=newest`), length and CRC shared by the 64-byte file
+/// headers; returns the version and a reader positioned after the version and header-length
+/// fields (offset 12).
 fn open_header<'a>(
     what: &'static str,
     magic: &[u8; 8],
-    version: u16,
+    newest: u16,
     bytes: &'a [u8],
-) -> Result<Reader<'a>, WireError> {
+) -> Result<(u16, Reader<'a>), WireError> {
     if bytes.len() < HEADER_LEN {
         return Err(WireError::Truncated {
             what,
@@ -233,11 +277,11 @@ fn open_header<'a>(
     let mut r = Reader::new(&bytes[..HEADER_LEN]);
     r.at = 8;
     let found = r.u16();
-    if found != version {
+    if !(1..=newest).contains(&found) {
         return Err(WireError::Version {
             what,
             version: found,
-            supported: version,
+            supported: newest,
         });
     }
     let len = r.u16();
@@ -257,7 +301,7 @@ fn open_header<'a>(
             computed,
         });
     }
-    Ok(r)
+    Ok((found, r))
 }
 
 /// Writes magic, version and length, leaving the writer at offset 12; [`seal_header`] adds the

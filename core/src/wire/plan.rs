@@ -1,7 +1,9 @@
 //! The canonical 80-byte encoding of a scan plan, and its fingerprint.
 //!
-//! Every file and message that depends on a plan carries the plan's fingerprint (CRC-64/XZ of
-//! these bytes), so a dump recorded with one plan cannot be decoded with another. The same
+//! Every file and message that depends on a decode carries the plan's fingerprint (CRC-64/XZ of
+//! these bytes), so candidates decoded with one plan cannot be scanned with another; a row dump
+//! carries the fingerprint of the plan's patterns alone ([`ScanPlan::pattern_fingerprint`]), so
+//! it decodes with any settings of the decoder. The same
 //! bytes are the compact form a camera stores. Little-endian (version 2; version 1 was the
 //! first 64 bytes alone, and is still read):
 //!
@@ -280,6 +282,41 @@ impl ScanPlan {
     /// Whether a file or message stating `fingerprint` was made with this plan: its
     /// fingerprint, or its version-1 one.
     pub fn has_fingerprint(&self, fingerprint: u64) -> bool {
-        fingerprint == self.fingerprint() || self.legacy_fingerprint() == Some(fingerprint)
+        self.identity().has_plan_fingerprint(fingerprint)
+    }
+
+    /// The fingerprint of the frames alone ([`super::pattern_fingerprint`], tag `FS`): what
+    /// row dumps carry, so that a capture decodes again under other decoder settings. Its
+    /// fields are those [`ScanPlan::intensity`] and the sequence read: `projector_columns`,
+    /// the band (`L`, `n₁`, `M`), the method with its groups and block width, the levels
+    /// (`PA`, `PB`) and the references; not `transform_size`, the border guard or any
+    /// [`DecodeSettings`] field.
+    pub fn pattern_fingerprint(&self) -> u64 {
+        let mut fields = [0u8; 24];
+        let mut w = Writer::new(&mut fields);
+        w.u16(self.projector_columns);
+        w.u32(self.band.period_columns);
+        w.u32(self.band.first_harmonic);
+        w.u16(self.band.count);
+        let (groups, block_width) = match self.method {
+            Method::Bfsm => (0, 0),
+            Method::Efsm(b) => (b.groups as u8 + 1, b.block_width),
+        };
+        w.u8(groups);
+        w.u16(block_width);
+        w.f32(self.levels.offset);
+        w.f32(self.levels.amplitude);
+        w.u8(self.references.dark as u8 | (self.references.white as u8) << 1);
+        debug_assert_eq!(w.at, fields.len());
+        super::pattern_fingerprint(b"FS", &fields)
+    }
+
+    /// Every fingerprint of the plan.
+    pub fn identity(&self) -> super::PlanIdentity {
+        super::PlanIdentity {
+            patterns: self.pattern_fingerprint(),
+            plan: self.fingerprint(),
+            legacy_plan: self.legacy_fingerprint(),
+        }
     }
 }

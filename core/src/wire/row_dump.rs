@@ -8,11 +8,11 @@
 //! | offset | type | field |
 //! |---|---|---|
 //! | 0 | `[u8; 8]` | magic `FSMROWS\0` |
-//! | 8 | u16 | version, 1 |
+//! | 8 | u16 | version, 2 |
 //! | 10 | u16 | header length, 64 |
 //! | 12 | u8 | sensor bit depth, 1–16 |
 //! | 13 | `[u8; 3]` | reserved, 0 |
-//! | 16 | u64 | plan fingerprint ([`ScanPlan::fingerprint`]) |
+//! | 16 | u64 | pattern fingerprint ([`ScanPlan::pattern_fingerprint`]); in version 1, the plan fingerprint |
 //! | 24 | u32 | width `W` (pixels per row) |
 //! | 28 | u32 | height `H` (rows in the scan) |
 //! | 32 | u32 | frames `M` per row (the plan's whole sequence, references included) |
@@ -26,7 +26,12 @@
 //! | 0 | u32 | row index `y < H` |
 //! | 4 | `[u16; W·M]` | samples, sample-major: frame `i`, pixel `x` at `i·W + x` (the line decoder's input) |
 //! | 4 + 2·W·M | u32 | CRC-32 of the row index and the samples |
+//!
+//! Version 1 differs only in the fingerprint: it named the whole plan, decoder settings
+//! included, so a version-1 dump decodes only with the plan it was recorded with
+//! ([`RecordedWith::Plan`]). Both versions are read; version 2 is written.
 
+use super::PlanIdentity;
 use super::{
     begin_header, crc32, crc32_parts, open_header, seal_header, WireError, Writer, HEADER_LEN,
 };
@@ -34,10 +39,46 @@ use crate::plan::ScanPlan;
 
 /// Magic bytes of a row dump.
 pub const MAGIC: [u8; 8] = *b"FSMROWS\0";
-/// Version this build writes and reads.
-pub const VERSION: u16 = 1;
+/// Version this build writes (it also reads version 1).
+pub const VERSION: u16 = 2;
 
 const WHAT: &str = "row dump";
+
+/// What the rows of a dump were captured with: the header's fingerprint and its meaning.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RecordedWith {
+    /// The pattern sequence's fingerprint (version 2): any plan that shows these patterns
+    /// decodes the dump, whatever its decoder settings.
+    Patterns(u64),
+    /// The whole plan's fingerprint (version 1): only that plan decodes the dump.
+    Plan(u64),
+}
+
+impl RecordedWith {
+    /// The fingerprint the header holds.
+    pub fn fingerprint(self) -> u64 {
+        match self {
+            RecordedWith::Patterns(f) | RecordedWith::Plan(f) => f,
+        }
+    }
+
+    /// The header field's name, for messages.
+    pub fn field(self) -> &'static str {
+        match self {
+            RecordedWith::Patterns(_) => "pattern_fingerprint",
+            RecordedWith::Plan(_) => "plan_fingerprint",
+        }
+    }
+
+    /// Whether a plan of identity `plan` may decode rows recorded so.
+    pub fn admits(self, plan: &PlanIdentity) -> bool {
+        match self {
+            RecordedWith::Patterns(f) => f == plan.patterns,
+            RecordedWith::Plan(f) => plan.has_plan_fingerprint(f),
+        }
+    }
+}
 
 /// The header of a row dump.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,8 +86,8 @@ const WHAT: &str = "row dump";
 pub struct RowDumpHeader {
     /// Sensor bit depth, 1–16.
     pub bit_depth: u8,
-    /// Fingerprint of the plan the rows were captured with.
-    pub plan_fingerprint: u64,
+    /// The fingerprint of what the rows were captured with (the format version follows it).
+    pub recorded_with: RecordedWith,
     /// Pixels per row.
     pub width: u32,
     /// Rows in the scan.
@@ -60,20 +101,25 @@ impl RowDumpHeader {
     pub fn for_plan(plan: &ScanPlan, width: u32, height: u32, bit_depth: u8) -> Self {
         RowDumpHeader {
             bit_depth,
-            plan_fingerprint: plan.fingerprint(),
+            recorded_with: RecordedWith::Patterns(plan.pattern_fingerprint()),
             width,
             height,
             frames: plan.sequence_len() as u32,
         }
     }
 
-    /// The 64 header bytes.
+    /// The 64 header bytes, in the version [`RowDumpHeader::recorded_with`] implies (so a
+    /// version-1 header is copied as it was read).
     pub fn encode(&self) -> [u8; HEADER_LEN] {
         let mut out = [0u8; HEADER_LEN];
-        let mut w = begin_header(&MAGIC, VERSION, &mut out);
+        let version = match self.recorded_with {
+            RecordedWith::Patterns(_) => VERSION,
+            RecordedWith::Plan(_) => 1,
+        };
+        let mut w = begin_header(&MAGIC, version, &mut out);
         w.u8(self.bit_depth);
         w.put(&[0; 3]);
-        w.u64(self.plan_fingerprint);
+        w.u64(self.recorded_with.fingerprint());
         w.u32(self.width);
         w.u32(self.height);
         w.u32(self.frames);
@@ -83,12 +129,16 @@ impl RowDumpHeader {
 
     /// Reads and checks a header (magic, version, CRC, field ranges).
     pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
-        let mut r = open_header(WHAT, &MAGIC, VERSION, bytes)?;
+        let (version, mut r) = open_header(WHAT, &MAGIC, VERSION, bytes)?;
         let bit_depth = r.u8();
         let _reserved: [u8; 3] = r.take();
+        let fingerprint = r.u64();
         let header = RowDumpHeader {
             bit_depth,
-            plan_fingerprint: r.u64(),
+            recorded_with: match version {
+                1 => RecordedWith::Plan(fingerprint),
+                _ => RecordedWith::Patterns(fingerprint),
+            },
             width: r.u32(),
             height: r.u32(),
             frames: r.u32(),
@@ -113,17 +163,22 @@ impl RowDumpHeader {
         Ok(header)
     }
 
-    /// Checks that the dump was made with `plan`.
+    /// Checks that the dump was made with `plan`'s patterns (or, for a version-1 dump, with
+    /// `plan` itself).
     pub fn check_plan(&self, plan: &ScanPlan) -> Result<(), WireError> {
-        let fingerprint = plan.fingerprint();
-        if self.plan_fingerprint != fingerprint {
+        self.check_identity(&plan.identity(), plan.sequence_len())
+    }
+
+    /// [`RowDumpHeader::check_plan`] for any method's plan, given its identity and frame count.
+    pub fn check_identity(&self, plan: &PlanIdentity, frames: usize) -> Result<(), WireError> {
+        if !self.recorded_with.admits(plan) {
             return Err(WireError::Field {
                 what: WHAT,
-                field: "plan_fingerprint",
-                value: self.plan_fingerprint,
+                field: self.recorded_with.field(),
+                value: self.recorded_with.fingerprint(),
             });
         }
-        if self.frames as usize != plan.sequence_len() {
+        if self.frames as usize != frames {
             return Err(WireError::Field {
                 what: WHAT,
                 field: "frames",

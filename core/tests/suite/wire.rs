@@ -3,9 +3,12 @@
 use crate::support;
 
 use fsm_core::wire::candidates::{self, CandidateHeader};
-use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_core::wire::row_dump::{self, RecordedWith, RowDumpHeader};
 use fsm_core::wire::{WireError, HEADER_LEN};
-use fsm_core::{GroupCount, PixelCandidates, ScanPlan, Window};
+use fsm_core::{
+    CodeEnsemblePlan, GroupCount, LineScanPlan, Method, MicroPhaseShiftPlan, PatternSequence,
+    PhaseShiftPlan, PixelCandidates, ScanPlan, Window,
+};
 use proptest::prelude::*;
 use support::{Harness, Noise, Pixel};
 
@@ -209,7 +212,7 @@ fn row_dumps_round_trip_and_name_their_damage() {
         matches!(
             e,
             WireError::Field {
-                field: "plan_fingerprint",
+                field: "pattern_fingerprint",
                 ..
             }
         ),
@@ -348,6 +351,220 @@ fn candidate_rows_round_trip_bit_for_bit() {
     }
 }
 
+/// Every frame of a sequence at every column, as bits: what a camera is shown.
+fn frames_of(seq: &dyn PatternSequence) -> Vec<u32> {
+    (0..seq.frame_count())
+        .flat_map(|f| (0..seq.projector_columns() as u32).map(move |c| (f, c)))
+        .map(|(f, c)| seq.frame_intensity(f, c).to_bits())
+        .collect()
+}
+
+/// Checks that `changed` shows the same frames as `base` exactly when their pattern
+/// fingerprints agree, and that its plan fingerprint differs (every change here changes
+/// some setting).
+fn assert_pattern_identity(what: &str, base: &dyn PatternSequence, changed: &dyn PatternSequence) {
+    let same_frames = base.frame_count() == changed.frame_count()
+        && base.projector_columns() == changed.projector_columns()
+        && frames_of(base) == frames_of(changed);
+    let same_fingerprint = base.pattern_fingerprint() == changed.pattern_fingerprint();
+    assert_eq!(
+        same_frames,
+        same_fingerprint,
+        "{what}: frames {} but pattern fingerprints {}",
+        if same_frames { "equal" } else { "differ" },
+        if same_fingerprint { "equal" } else { "differ" }
+    );
+    assert_ne!(
+        base.fingerprint(),
+        changed.fingerprint(),
+        "{what}: plan fingerprint"
+    );
+    assert_ne!(base.pattern_fingerprint(), base.fingerprint(), "{what}");
+}
+
+#[test]
+fn pattern_fingerprints_change_with_the_frames_and_with_nothing_else() {
+    type Change = fn(&mut ScanPlan);
+    // Decoder settings (the frames stay) and pattern fields (the frames change).
+    let changes: [(&str, Change); 15] = [
+        ("noise_factor", |p| p.decoding.noise_factor *= 1.5),
+        ("max_peaks", |p| p.decoding.max_peaks -= 1),
+        ("min_amplitude_dn", |p| p.decoding.min_amplitude_dn += 1.0),
+        ("read noise", |p| {
+            p.decoding.sensor.read_noise_electrons += 1.0
+        }),
+        ("CLEAN", |p| *p = p.with_clean()),
+        ("local maxima", |p| *p = p.with_local_maxima()),
+        ("transform_size", |p| p.transform_size *= 2),
+        ("border_guard", |p| {
+            if let Method::Efsm(b) = &mut p.method {
+                b.border_guard *= 0.5;
+            } else {
+                p.decoding.merge_tolerance += 0.1;
+            }
+        }),
+        ("offset PA", |p| p.levels.offset -= 0.05),
+        ("modulation PB", |p| p.levels.amplitude -= 0.05),
+        ("no white frame", |p| p.references.white = false),
+        ("first harmonic", |p| p.band.first_harmonic += 1),
+        ("fringe count", |p| p.band.count -= 1),
+        ("period", |p| p.band.period_columns += 2),
+        ("groups", |p| {
+            if let Method::Efsm(b) = &mut p.method {
+                b.groups = match b.groups {
+                    GroupCount::One => GroupCount::Two,
+                    GroupCount::Two => GroupCount::One,
+                };
+            } else {
+                p.projector_columns -= 2;
+            }
+        }),
+    ];
+    let plans = [
+        ScanPlan::bfsm(96),
+        ScanPlan::efsm(256, 32, GroupCount::One),
+        ScanPlan::efsm(256, 32, GroupCount::Two),
+    ];
+    for base in plans {
+        for (name, change) in changes {
+            let mut changed = base;
+            change(&mut changed);
+            assert_pattern_identity(&format!("{:?} / {name}", base.method), &base, &changed);
+        }
+    }
+    // The baselines: decoder settings keep the pattern fingerprint, pattern fields change it.
+    let ps = PhaseShiftPlan::paper();
+    assert_pattern_identity(
+        "PS min_modulation_dn",
+        &ps,
+        &PhaseShiftPlan {
+            min_modulation_dn: 9.0,
+            ..ps
+        },
+    );
+    assert_pattern_identity(
+        "PS steps",
+        &ps,
+        &PhaseShiftPlan {
+            steps: ps.steps + 1,
+            ..ps
+        },
+    );
+    assert_pattern_identity(
+        "PS bits",
+        &ps,
+        &PhaseShiftPlan {
+            bits: ps.bits - 1,
+            ..ps
+        },
+    );
+    let mps = MicroPhaseShiftPlan::paper();
+    assert_pattern_identity(
+        "MPS max_code_residual",
+        &mps,
+        &MicroPhaseShiftPlan {
+            max_code_residual: 0.3,
+            ..mps
+        },
+    );
+    let mut periods = mps.periods_columns;
+    periods[0] += 1.0;
+    assert_pattern_identity(
+        "MPS period",
+        &mps,
+        &MicroPhaseShiftPlan {
+            periods_columns: periods,
+            ..mps
+        },
+    );
+    let ls = LineScanPlan::paper();
+    assert_pattern_identity(
+        "LS noise_factor",
+        &ls,
+        &LineScanPlan {
+            noise_factor: 7.0,
+            ..ls
+        },
+    );
+    assert_pattern_identity(
+        "LS columns",
+        &ls,
+        &LineScanPlan {
+            projector_columns: 512,
+            ..ls
+        },
+    );
+    let ce = CodeEnsemblePlan::paper();
+    assert_pattern_identity(
+        "CE agreement",
+        &ce,
+        &CodeEnsemblePlan {
+            agreement_columns: 2,
+            ..ce
+        },
+    );
+    assert_pattern_identity(
+        "CE columns",
+        &ce,
+        &CodeEnsemblePlan {
+            projector_columns: 512,
+            ..ce
+        },
+    );
+}
+
+#[test]
+fn dumps_decode_under_other_decoder_settings_and_version_1_dumps_only_with_their_plan() {
+    let plan = ScanPlan::paper_efsm(GroupCount::Two);
+    let mut retuned = plan;
+    retuned.decoding.noise_factor *= 2.0;
+    retuned.decoding.max_peaks -= 1;
+    let other_patterns = ScanPlan::paper_efsm(GroupCount::One);
+
+    let header = RowDumpHeader::for_plan(&plan, 3, 2, 12);
+    let read = RowDumpHeader::decode(&header.encode()).unwrap();
+    assert_eq!(
+        read.recorded_with,
+        RecordedWith::Patterns(plan.pattern_fingerprint())
+    );
+    read.check_plan(&plan).unwrap();
+    read.check_plan(&retuned).unwrap();
+    let e = read.check_plan(&other_patterns).unwrap_err();
+    assert!(e.to_string().contains("pattern_fingerprint"), "{e}");
+
+    // A version-1 header (as dumps were written before the split) names the whole plan.
+    let v1 = RowDumpHeader {
+        recorded_with: RecordedWith::Plan(plan.fingerprint()),
+        ..header
+    };
+    let bytes = v1.encode();
+    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 1);
+    let read = RowDumpHeader::decode(&bytes).unwrap();
+    assert_eq!(read, v1);
+    read.check_plan(&plan).unwrap();
+    let e = read.check_plan(&retuned).unwrap_err();
+    assert!(
+        matches!(e, WireError::Field { field: "plan_fingerprint", value, .. } if value == plan.fingerprint()),
+        "{e}"
+    );
+
+    // A version this build does not know is refused by number.
+    let mut future = header.encode();
+    future[8] = 3;
+    let crc = fsm_core::wire::crc32(&future[..60]);
+    future[60..].copy_from_slice(&crc.to_le_bytes());
+    let e = RowDumpHeader::decode(&future).unwrap_err();
+    assert_eq!(
+        e,
+        WireError::Version {
+            what: "row dump",
+            version: 3,
+            supported: 2
+        }
+    );
+    assert!(e.to_string().contains("versions 1 to 2"), "{e}");
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
@@ -357,7 +574,7 @@ proptest! {
         let _ = ScanPlan::from_bytes(&bytes);
         let _ = RowDumpHeader::decode(&bytes);
         let _ = CandidateHeader::decode(&bytes);
-        let dump_header = RowDumpHeader { bit_depth: 12, plan_fingerprint: 1, width, height: 4, frames: 3 };
+        let dump_header = RowDumpHeader { bit_depth: 12, recorded_with: RecordedWith::Patterns(1), width, height: 4, frames: 3 };
         let _ = row_dump::decode_record(&dump_header, &bytes);
         let cand_header = CandidateHeader { capacity: 4, plan_fingerprint: 1, width, height: 4 };
         if let Ok(r) = candidates::decode_record(&cand_header, &bytes) {
@@ -390,8 +607,9 @@ proptest! {
 
     /// Valid headers decode to what was written.
     #[test]
-    fn headers_round_trip(bit_depth in 1u8..=16, w in 1u32..5000, h in 1u32..5000, frames in 1u32..5000, fp in any::<u64>()) {
-        let header = RowDumpHeader { bit_depth, plan_fingerprint: fp, width: w, height: h, frames };
+    fn headers_round_trip(bit_depth in 1u8..=16, w in 1u32..5000, h in 1u32..5000, frames in 1u32..5000, fp in any::<u64>(), v1 in any::<bool>()) {
+        let recorded_with = if v1 { RecordedWith::Plan(fp) } else { RecordedWith::Patterns(fp) };
+        let header = RowDumpHeader { bit_depth, recorded_with, width: w, height: h, frames };
         prop_assert_eq!(RowDumpHeader::decode(&header.encode()).unwrap(), header);
     }
 }

@@ -23,7 +23,7 @@ use std::time::Duration;
 
 use fsm_core::wire::candidates::{self, CandidateHeader};
 use fsm_core::wire::row_dump::{self, RowDumpHeader};
-use fsm_core::wire::{WireError, HEADER_LEN};
+use fsm_core::wire::{PlanIdentity, WireError, HEADER_LEN};
 use fsm_core::ScanPlan;
 
 use crate::frame::{self, FrameError, FrameReader};
@@ -191,6 +191,9 @@ pub struct Client<L> {
     len: usize,
     /// The link's read and write time-out, for messages.
     timeout: Option<Duration>,
+    /// The fingerprints of the plan this client last uploaded: a raw scan's header carries
+    /// its pattern fingerprint.
+    uploaded: Option<PlanIdentity>,
 }
 
 impl Client<Box<dyn Link>> {
@@ -223,6 +226,7 @@ impl<L: Read + Write> Client<L> {
             at: 0,
             len: 0,
             timeout: None,
+            uploaded: None,
         }
     }
 
@@ -317,7 +321,10 @@ impl<L: Read + Write> Client<L> {
             fingerprint: sent,
         };
         match self.request(&request)? {
-            Response::PlanAccepted { fingerprint } if fingerprint == sent => Ok(fingerprint),
+            Response::PlanAccepted { fingerprint } if fingerprint == sent => {
+                self.uploaded = Some(plan.identity());
+                Ok(fingerprint)
+            }
             Response::PlanAccepted { fingerprint } => Err(ClientError::Acknowledgement {
                 sent,
                 acked: fingerprint,
@@ -329,6 +336,7 @@ impl<L: Read + Write> Client<L> {
     /// Starts a scan; returns the 64-byte header of the stream that follows, checked against
     /// `spec`.
     pub fn start_scan(&mut self, spec: &ScanSpec) -> Result<[u8; HEADER_LEN], ClientError> {
+        let uploaded = self.uploaded;
         let header = match self.request(&Request::StartScan(*spec))? {
             Response::ScanStarted { header } => header,
             other => return Err(answer_error(RequestKind::StartScan, &other)),
@@ -344,22 +352,29 @@ impl<L: Read + Write> Client<L> {
                 value,
             })
         };
-        let (fingerprint, width, height) = match spec.output {
+        let (width, height) = match spec.output {
             RowOutput::Candidates => {
                 let h = CandidateHeader::decode(header).map_err(camera)?;
-                (h.plan_fingerprint, h.width, h.height)
+                if h.plan_fingerprint != spec.fingerprint {
+                    return Err(field("plan_fingerprint", h.plan_fingerprint));
+                }
+                (h.width, h.height)
             }
             RowOutput::Raw => {
                 let h = RowDumpHeader::decode(header).map_err(camera)?;
                 if h.bit_depth != spec.bit_depth {
                     return Err(field("bit_depth", h.bit_depth as u64));
                 }
-                (h.plan_fingerprint, h.width, h.height)
+                // Raw rows name the patterns shown; checked when this client uploaded the
+                // plan (another session's plan is known by its plan fingerprint alone).
+                let known = uploaded.filter(|id| id.plan == spec.fingerprint);
+                if known.is_some_and(|id| !h.recorded_with.admits(&id)) {
+                    let r = h.recorded_with;
+                    return Err(field(r.field(), r.fingerprint()));
+                }
+                (h.width, h.height)
             }
         };
-        if fingerprint != spec.fingerprint {
-            return Err(field("plan_fingerprint", fingerprint));
-        }
         if width != spec.width {
             return Err(field("width", width as u64));
         }

@@ -9,7 +9,7 @@ use std::collections::HashSet;
 use std::path::Path;
 
 use fsm_core::wire::crc32;
-use fsm_core::wire::row_dump::RowDumpHeader;
+use fsm_core::wire::row_dump::{RecordedWith, RowDumpHeader};
 use fsm_io::dump::{DumpError, DumpReader, DumpWriter};
 use libfuzzer_sys::fuzz_target;
 
@@ -92,7 +92,7 @@ fuzz_target!(|data: &[u8]| {
     }
     let header = RowDumpHeader {
         bit_depth: 1 + data[0] % 16,
-        plan_fingerprint: 7,
+        recorded_with: RecordedWith::Patterns(7),
         width: 1 + data[1] as u32 % 4,
         height: 1 + data[2] as u32 % 6,
         frames: 1 + data[3] as u32 % 4,

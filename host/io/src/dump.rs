@@ -11,7 +11,7 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_core::wire::row_dump::{self, RecordedWith, RowDumpHeader};
 use fsm_core::wire::{WireError, HEADER_LEN};
 
 use crate::error::{Error, Wire};
@@ -38,12 +38,22 @@ pub enum DumpError {
         /// What the header check found.
         source: Wire,
     },
-    /// The dump was recorded with another plan.
-    #[error("{}: recorded with plan fingerprint {found:016x}, but the plan given has fingerprint {expected:016x}; decode with the plan the camera used", path.display())]
+    /// The dump was recorded with other patterns than the plan's.
+    #[error("{}: recorded with the patterns of fingerprint {found:016x}, but the plan given shows patterns {expected:016x}; decode with a plan of the patterns the camera showed (`fsm plan --check` prints a plan's pattern fingerprint)", path.display())]
+    PatternMismatch {
+        /// The dump.
+        path: PathBuf,
+        /// The header's pattern fingerprint.
+        found: u64,
+        /// The plan's.
+        expected: u64,
+    },
+    /// A version-1 dump (which names the whole plan) given another plan.
+    #[error("{}: a version-1 dump, recorded with plan fingerprint {found:016x}, but the plan given has fingerprint {expected:016x}; version-1 dumps decode only with the plan they were recorded with, decoder settings included", path.display())]
     PlanMismatch {
         /// The dump.
         path: PathBuf,
-        /// The header's fingerprint.
+        /// The header's plan fingerprint.
         found: u64,
         /// The plan's.
         expected: u64,
@@ -308,12 +318,21 @@ impl<R: Read> DumpReader<R> {
         bit_depth: Option<u8>,
     ) -> Result<(), DumpError> {
         let plan = plan.into();
-        let expected = plan.fingerprint();
-        if !plan.has_fingerprint(self.header.plan_fingerprint) {
-            return Err(DumpError::PlanMismatch {
-                path: self.path.clone(),
-                found: self.header.plan_fingerprint,
-                expected,
+        let identity = plan.patterns().identity();
+        let recorded = self.header.recorded_with;
+        if !recorded.admits(&identity) {
+            let path = self.path.clone();
+            return Err(match recorded {
+                RecordedWith::Patterns(found) => DumpError::PatternMismatch {
+                    path,
+                    found,
+                    expected: identity.patterns,
+                },
+                RecordedWith::Plan(found) => DumpError::PlanMismatch {
+                    path,
+                    found,
+                    expected: identity.plan,
+                },
             });
         }
         if self.header.frames as usize != plan.frame_count() {
@@ -588,7 +607,7 @@ pub fn write_dump_from_stack(
     let plan = plan.into();
     let header = RowDumpHeader {
         bit_depth: stack.bit_depth(),
-        plan_fingerprint: plan.fingerprint(),
+        recorded_with: RecordedWith::Patterns(plan.pattern_fingerprint()),
         width: stack.width(),
         height: stack.height(),
         frames: plan.frame_count() as u32,

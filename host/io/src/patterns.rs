@@ -181,6 +181,10 @@ pub struct Manifest {
     pub format_version: u32,
     /// The plan's fingerprint, 16 hex digits.
     pub plan_fingerprint: String,
+    /// The fingerprint of the plan's patterns alone, 16 hex digits: what the row dump of a
+    /// capture of these images carries (absent from manifests written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pattern_fingerprint: Option<String>,
     /// The plan itself, as its plan file holds it (without `format_version`).
     pub plan: serde_json::Value,
     /// Image width, pixels.
@@ -330,6 +334,7 @@ pub fn write_method_pattern_set(
     let manifest = Manifest {
         format_version: MANIFEST_VERSION,
         plan_fingerprint: format!("{:016x}", patterns.fingerprint()),
+        pattern_fingerprint: Some(format!("{:016x}", patterns.pattern_fingerprint())),
         plan: crate::plan_file::plan_value(plan),
         width,
         height: options.height,

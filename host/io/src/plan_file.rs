@@ -183,13 +183,18 @@ impl MethodPlan {
         }
     }
 
-    /// The fingerprint row dumps and candidate files of its captures carry.
+    /// The fingerprint candidate files of its decodes carry (patterns and decoder settings).
     pub fn fingerprint(&self) -> u64 {
         self.patterns().fingerprint()
     }
 
-    /// Whether a dump or candidate file with fingerprint `f` was recorded with this plan (an
-    /// FSM plan also answers to its version-1 fingerprint: [`ScanPlan::has_fingerprint`]).
+    /// The fingerprint row dumps and image stacks of its captures carry (the patterns alone).
+    pub fn pattern_fingerprint(&self) -> u64 {
+        self.patterns().pattern_fingerprint()
+    }
+
+    /// Whether a candidate file (or a version-1 dump) with fingerprint `f` was made with this
+    /// plan (an FSM plan also answers to its version-1 fingerprint: [`ScanPlan::has_fingerprint`]).
     pub fn has_fingerprint(&self, f: u64) -> bool {
         match self {
             MethodPlan::Fsm(p) => p.has_fingerprint(f),
@@ -459,9 +464,10 @@ pub fn render_method_plan(plan: &MethodPlan, syntax: PlanSyntax) -> String {
             };
             format!(
                 "# {what} (format described in the host README, \"Plan files\").\n\
-                 # {} frames; plan fingerprint {:016x}.\n{body}",
+                 # {} frames; plan fingerprint {:016x}, pattern fingerprint {:016x}.\n{body}",
                 patterns.frame_count(),
-                patterns.fingerprint()
+                patterns.fingerprint(),
+                patterns.pattern_fingerprint()
             )
         }
         PlanSyntax::Json => body,

@@ -14,7 +14,7 @@ use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
 
-use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_core::wire::row_dump::{self, RecordedWith, RowDumpHeader};
 use fsm_io::outputs::StagedFile;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Poisson, StandardNormal};
@@ -42,7 +42,8 @@ pub struct Capture {
     frames: usize,
     sensor: Sensor,
     seed: u64,
-    fingerprint: u64,
+    /// The patterns' fingerprint, which its row dump carries.
+    pattern_fingerprint: u64,
 }
 
 impl Capture {
@@ -82,7 +83,7 @@ impl Capture {
             frames,
             sensor,
             seed,
-            fingerprint: patterns.fingerprint(),
+            pattern_fingerprint: patterns.pattern_fingerprint(),
         })
     }
 
@@ -215,7 +216,7 @@ impl Capture {
     pub fn dump_header(&self) -> RowDumpHeader {
         RowDumpHeader {
             bit_depth: self.sensor.bit_depth,
-            plan_fingerprint: self.fingerprint,
+            recorded_with: RecordedWith::Patterns(self.pattern_fingerprint),
             width: self.width(),
             height: self.height(),
             frames: self.frames as u32,
@@ -332,6 +333,10 @@ impl<P: PatternSequence, F: Fn(f32) -> f32> PatternSequence for DrivenCodes<'_, 
     fn fingerprint(&self) -> u64 {
         self.patterns.fingerprint()
     }
+
+    fn pattern_fingerprint(&self) -> u64 {
+        self.patterns.pattern_fingerprint()
+    }
 }
 
 /// Uniform grey frames, the projector-response measurement: frame `i` shows `levels[i]` (a
@@ -375,5 +380,10 @@ impl PatternSequence for UniformLevels {
             bytes.extend(l.to_bits().to_le_bytes());
         }
         fsm_core::wire::crc64(&bytes)
+    }
+
+    /// The levels are the frames: the same as [`UniformLevels::fingerprint`].
+    fn pattern_fingerprint(&self) -> u64 {
+        self.fingerprint()
     }
 }

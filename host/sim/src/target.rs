@@ -260,6 +260,10 @@ impl PatternSequence for WhiteFrame {
     fn fingerprint(&self) -> u64 {
         0x5768_6974_6546_726d // "WhiteFrm"
     }
+
+    fn pattern_fingerprint(&self) -> u64 {
+        self.fingerprint()
+    }
 }
 
 /// The white frame of `scene` (every projector column full on), row-major `W × H`: sensor codes

@@ -285,6 +285,10 @@ fn print_summary(plan: &MethodPlan) {
             patterns.pattern_count()
         );
         println!("  fingerprint:   {:016x}", patterns.fingerprint());
+        println!(
+            "  patterns:      {:016x} (the fingerprint its row dumps carry)",
+            patterns.pattern_fingerprint()
+        );
     }
 }
 
@@ -320,4 +324,8 @@ fn print_fsm_summary(plan: &ScanPlan) {
         sequence_summary(plan)
     );
     println!("  fingerprint:   {:016x}", plan.fingerprint());
+    println!(
+        "  patterns:      {:016x} (the fingerprint its row dumps carry)",
+        plan.pattern_fingerprint()
+    );
 }

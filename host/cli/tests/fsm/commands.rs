@@ -251,7 +251,7 @@ fn a_bit_depth_too_small_for_the_samples_is_refused() {
 }
 
 #[test]
-fn a_foreign_plan_or_a_damaged_dump_is_refused() {
+fn a_dump_decodes_under_other_decoder_settings_but_not_with_other_patterns() {
     let scan = scan();
     let dump = scan.dir.path().join("scan.dump");
     ok(&[
@@ -265,17 +265,53 @@ fn a_foreign_plan_or_a_damaged_dump_is_refused() {
         "--out",
         s(&dump),
     ]);
-    // The same scan decoded with a plan that differs in one threshold.
-    let other = scan.dir.path().join("other.json");
+    // The same patterns decoded with another threshold and fewer lights per pixel: the dump
+    // names the patterns shown, not the decoder, so it decodes, and the candidate file names
+    // the plan that decoded it.
+    let retuned = scan.dir.path().join("retuned.json");
     ok(&[
         "plan",
         "--preset",
         "paper-efsm-2",
         "--set",
         "decoding.noise_factor=6",
+        "--set",
+        "decoding.max_peaks=2",
+        "--out",
+        s(&retuned),
+    ]);
+    let decoded = scan.dir.path().join("retuned-decoded");
+    ok(&[
+        "decode",
+        "--plan",
+        s(&retuned),
+        "--dump",
+        s(&dump),
+        "--out",
+        s(&decoded),
+    ]);
+    let retuned_plan = fsm_io::plan_file::read_method_plan(&retuned).unwrap();
+    let original = fsm_io::plan_file::read_method_plan(&scan.plan).unwrap();
+    assert_ne!(retuned_plan.fingerprint(), original.fingerprint());
+    assert_eq!(
+        retuned_plan.pattern_fingerprint(),
+        original.pattern_fingerprint()
+    );
+    let reader = CandidateReader::open(&decoded.join(CANDIDATE_FILE_NAME)).unwrap();
+    assert_eq!(reader.header().plan_fingerprint, retuned_plan.fingerprint());
+
+    // Other patterns (a lower modulation PB): refused, naming the dump and both fingerprints.
+    let other = scan.dir.path().join("other.json");
+    ok(&[
+        "plan",
+        "--preset",
+        "paper-efsm-2",
+        "--set",
+        "levels.amplitude=0.4",
         "--out",
         s(&other),
     ]);
+    let other_plan = fsm_io::plan_file::read_method_plan(&other).unwrap();
     let out = scan.dir.path().join("decoded");
     let e = fails(&[
         "decode",
@@ -286,9 +322,32 @@ fn a_foreign_plan_or_a_damaged_dump_is_refused() {
         "--out",
         s(&out),
     ]);
-    assert!(e.contains(s(&dump)) && e.contains("fingerprint"), "{e}");
+    for part in [
+        s(&dump).to_owned(),
+        "patterns".to_owned(),
+        format!("{:016x}", original.pattern_fingerprint()),
+        format!("{:016x}", other_plan.pattern_fingerprint()),
+    ] {
+        assert!(e.contains(&part), "{part} missing from: {e}");
+    }
     assert!(!out.exists());
+}
 
+#[test]
+fn a_damaged_dump_is_refused_naming_the_row() {
+    let scan = scan();
+    let dump = scan.dir.path().join("scan.dump");
+    ok(&[
+        "convert",
+        "--plan",
+        s(&scan.plan),
+        "--images",
+        s(&scan.captures),
+        "--bit-depth",
+        "12",
+        "--out",
+        s(&dump),
+    ]);
     // A flipped byte in row 2's record: the decode starts, fails naming the row, leaves nothing.
     let mut bytes = std::fs::read(&dump).unwrap();
     let record_len = (bytes.len() - 64) / 3;

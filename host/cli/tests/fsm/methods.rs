@@ -145,6 +145,10 @@ fn patterns_of_every_method_show_what_the_method_projects() {
             manifest["plan_fingerprint"],
             format!("{:016x}", patterns.fingerprint())
         );
+        assert_eq!(
+            manifest["pattern_fingerprint"],
+            format!("{:016x}", patterns.pattern_fingerprint())
+        );
         // Every image is the plan's pattern function at each column, to the 16-bit code.
         for frame in [0, 1, 2, frames / 2, frames - 1] {
             let file = out.join(manifest["frames"][frame]["file"].as_str().unwrap());

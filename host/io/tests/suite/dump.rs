@@ -7,7 +7,7 @@ use crate::support;
 use std::io::Cursor;
 use std::path::Path;
 
-use fsm_core::wire::row_dump::RowDumpHeader;
+use fsm_core::wire::row_dump::{RecordedWith, RowDumpHeader};
 use fsm_core::wire::{WireError, HEADER_LEN};
 use fsm_core::{GroupCount, ScanPlan};
 use fsm_io::capture::{BadRows, Capture};
@@ -191,12 +191,28 @@ fn padding_duplicates_and_foreign_plans_are_refused() {
     let reader = DumpReader::new(Cursor::new(&bytes), Path::new("a.dump")).unwrap();
     let other = ScanPlan::paper_efsm(GroupCount::Two);
     let e = reader.check(&other, None).unwrap_err();
-    assert!(matches!(e, DumpError::PlanMismatch { .. }));
+    assert!(matches!(e, DumpError::PatternMismatch { .. }));
     assert!(
         e.to_string()
-            .contains(&format!("{:016x}", other.fingerprint())),
+            .contains(&format!("{:016x}", other.pattern_fingerprint())),
         "{e}"
     );
+    // Other decoder settings, same patterns: accepted.
+    let mut retuned = plan;
+    retuned.decoding.noise_factor += 1.0;
+    reader.check(&retuned, Some(12)).unwrap();
+    // A version-1 dump (the whole plan's fingerprint) decodes with its plan only.
+    let v1 = RowDumpHeader {
+        recorded_with: RecordedWith::Plan(plan.fingerprint()),
+        ..*reader.header()
+    };
+    let mut old = bytes.clone();
+    old[..HEADER_LEN].copy_from_slice(&v1.encode());
+    let old_reader = DumpReader::new(Cursor::new(&old), Path::new("old.dump")).unwrap();
+    old_reader.check(&plan, Some(12)).unwrap();
+    let e = old_reader.check(&retuned, None).unwrap_err();
+    assert!(matches!(e, DumpError::PlanMismatch { .. }), "{e}");
+    assert!(e.to_string().contains("version-1"), "{e}");
     let e = reader.check(&plan, Some(10)).unwrap_err();
     assert!(
         matches!(
@@ -285,7 +301,7 @@ fn a_header_claiming_huge_records_is_refused_without_allocating_them() {
     // Valid header CRC, records of 2^52 bytes: the reader must fail on the data, not abort.
     let header = RowDumpHeader {
         bit_depth: 12,
-        plan_fingerprint: 1,
+        recorded_with: RecordedWith::Patterns(1),
         width: 1 << 31,
         height: 3,
         frames: 1 << 20,
