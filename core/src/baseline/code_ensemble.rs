@@ -37,9 +37,8 @@
 
 use core::fmt;
 
-use super::{PatternSequence, PixelDecoder};
-use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
-use crate::plan::sequence::Group;
+use super::{offer_light, PatternSequence, PixelDecoder};
+use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
 
 /// Bits of every code.
 pub const BITS: usize = 10;
@@ -465,16 +464,6 @@ impl PixelDecoder for CodeEnsemblePlan {
         let Some(column) = self.agreed(index).and_then(|k| self.column_of(k)) else {
             return;
         };
-        if range.contains(column) {
-            let candidate = Candidate {
-                column,
-                amplitude: contrast,
-                groups: GroupSet::only(Group::One),
-                group: Group::One,
-                peak: 0,
-                block: 0,
-            };
-            out.offer(candidate, 0.0, |old, _| *old);
-        }
+        offer_light(out, range, column, contrast);
     }
 }

@@ -18,11 +18,10 @@
 
 use core::fmt;
 
-use super::{PatternSequence, PixelDecoder};
-use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+use super::{offer_light, PatternSequence, PixelDecoder};
+use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
 use crate::math::{ln, sqrt};
 use crate::noise::sample_noise_dn;
-use crate::plan::sequence::Group;
 use crate::plan::SensorNoise;
 use crate::search::cosine::RIPPLE_DEPTH;
 
@@ -357,20 +356,7 @@ impl PixelDecoder for LineScanPlan {
             }
             let height = peak - base;
             let column = j as f32 + self.offset(|k| value(k) - base, j, 3.0 * noise, wide);
-            if range.contains(column) {
-                out.offer(
-                    Candidate {
-                        column,
-                        amplitude: height,
-                        groups: GroupSet::only(Group::One),
-                        group: Group::One,
-                        peak: 0,
-                        block: 0,
-                    },
-                    0.0,
-                    |old, _| *old,
-                );
-            }
+            offer_light(out, range, column, height);
         }
         out.sort();
         for (rank, c) in out.candidates.iter_mut().enumerate() {

@@ -19,10 +19,9 @@
 
 use core::fmt;
 
-use super::{PatternSequence, PixelDecoder};
-use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
+use super::{offer_light, PatternSequence, PixelDecoder};
+use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
 use crate::math::{cos64, floor, sqrt};
-use crate::plan::sequence::Group;
 
 /// Most frequencies a plan holds (the frames are `frequencies + 2`).
 pub const MAX_FREQUENCIES: usize = 16;
@@ -295,20 +294,8 @@ impl PixelDecoder for MicroPhaseShiftPlan {
         let matched = residual
             .partial_cmp(&self.max_code_residual)
             .is_some_and(|o| o.is_le());
-        if !matched || !range.contains(best) {
-            return;
+        if matched {
+            offer_light(out, range, best, amplitude);
         }
-        out.offer(
-            Candidate {
-                column: best,
-                amplitude,
-                groups: GroupSet::only(Group::One),
-                group: Group::One,
-                peak: 0,
-                block: 0,
-            },
-            0.0,
-            |old, _| *old,
-        );
     }
 }

@@ -18,8 +18,9 @@ pub mod line_scan;
 pub mod micro_phase_shift;
 pub mod phase_shift;
 
-use crate::candidate::{ColumnRange, PixelCandidates};
+use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates};
 use crate::decoder::{Row, RowError};
+use crate::plan::sequence::Group;
 use crate::wire::PlanIdentity;
 
 /// A sequence of projected frames, each a value per projector column: what a simulator renders
@@ -80,6 +81,28 @@ impl PatternSequence for crate::plan::ScanPlan {
 
     fn identity(&self) -> PlanIdentity {
         crate::plan::ScanPlan::identity(self)
+    }
+}
+
+/// Offers `out` a light at `column` of strength `amplitude` when `range` holds the column: the
+/// one way the baselines make a candidate (one group, no block, rank 0; a decoder that finds
+/// several ranks them after).
+pub(crate) fn offer_light<const K: usize>(
+    out: &mut PixelCandidates<K>,
+    range: &ColumnRange,
+    column: f32,
+    amplitude: f32,
+) {
+    if range.contains(column) {
+        let candidate = Candidate {
+            column,
+            amplitude,
+            groups: GroupSet::only(Group::One),
+            group: Group::One,
+            peak: 0,
+            block: 0,
+        };
+        out.offer(candidate, 0.0, |old, _| *old);
     }
 }
 

@@ -15,9 +15,8 @@
 
 use core::fmt;
 
-use super::{PatternSequence, PixelDecoder};
-use crate::candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
-use crate::plan::sequence::Group;
+use super::{offer_light, PatternSequence, PixelDecoder};
+use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
 
 /// A phase-shift + Gray-code scan.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -311,16 +310,6 @@ impl PixelDecoder for PhaseShiftPlan {
             k1
         };
         let column = (whole + turns) * self.period_columns as f32;
-        if range.contains(column) {
-            let candidate = Candidate {
-                column,
-                amplitude: modulation,
-                groups: GroupSet::only(Group::One),
-                group: Group::One,
-                peak: 0,
-                block: 0,
-            };
-            out.offer(candidate, 0.0, |old, _| *old);
-        }
+        offer_light(out, range, column, modulation);
     }
 }
