@@ -4,7 +4,10 @@
 //!
 //! [`scan_capture`] is the one path from a simulated capture to a [`Surface`]; [`run`] scans
 //! `plane_mirror`, `plane_mirror_covered` and `vgroove_glossy` with every method of [`Plans`] and
-//! writes each scan's outputs, [`markdown`] turns the [`Report`] into `report.md`.
+//! writes each scan's outputs, [`markdown`] and [`html`] turn the [`Report`] into `report.md`
+//! and `report.html` (one document, two renderers: `document.rs`).
+
+mod document;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -24,6 +27,8 @@ use fsm_scan::output::{write_scan, ScanSummary, StageSeconds};
 use fsm_scan::triangulate::column_limits;
 use fsm_scan::{SelectionParams, Surface};
 use serde::Serialize;
+
+use document::{Block, Cell, Document, Picture, Table};
 
 use crate::{
     Capture, LightTransport, PixelTruth, Scene, Sensor, SurfaceClass, System, TransportSettings,
@@ -417,12 +422,19 @@ fn write_column_error(
 
 /// `report.md`: the tables of `report` and its pictures (paths relative to the output folder).
 pub fn markdown(report: &Report) -> String {
-    let mut md = String::new();
-    md.push_str(&format!(
-        "# fsm demo: a mirror's interreflection, {} methods\n\n",
-        report.methods.len()
-    ));
-    md.push_str(&format!(
+    document(report).markdown()
+}
+
+/// `report.html`: the same content as [`markdown`], a self-contained HTML5 page (no scripts,
+/// no external resources) whose pictures are relative links into the output folder.
+pub fn html(report: &Report) -> String {
+    document(report).html()
+}
+
+/// The report's content, once for both formats: prose, tables and pictures.
+fn document(report: &Report) -> Document {
+    let text = Cell::Text;
+    let mut blocks = vec![Block::Paragraph(format!(
         "Simulated bench scanner (baseline 200 mm, standoff {} mm, 768-column projector, {}×{} camera, seed {}). \
          The scene `plane_mirror` is a diffuse plane beside a planar mirror: {} camera pixels receive more than 20% \
          of their light through the mirror (white in `interreflection.png`). `plane_mirror_covered` is the same \
@@ -433,37 +445,58 @@ pub fn markdown(report: &Report) -> String {
          (Gupta & Nayar), LS line scanning (one column per pattern, a Gaussian peak detector). Where a pixel's direct and mirrored columns fall within one \
          footprint of each other modulo the block width (2Δc for the DFT searches), EFSM cannot separate them \
          (paper §IV-C): the decoder flags the pixel aliased and it gets no point, which the completeness column \
-         shows.\n\n",
+         shows.",
         report.standoff_mm, report.camera[0], report.camera[1], report.seed, report.interreflection_pixels
-    ));
-    md.push_str("| method | patterns | interreflection pixels within 0.5 column | column RMS there (covered) | Ed mm (% standoff) | EnoI mm | EwiI mm | completeness | points > 1 mm off | directly lit pixels with a right point |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    ))];
+    blocks.push(Block::Figure(Picture {
+        path: "interreflection.png".into(),
+        alt: "plane_mirror's camera pixels, white where more than 20% of the light comes through the mirror".into(),
+    }));
+    let mut main = Table::new(&[
+        "method",
+        "patterns",
+        "interreflection pixels within 0.5 column",
+        "column RMS there (covered)",
+        "Ed mm (% standoff)",
+        "EnoI mm",
+        "EwiI mm",
+        "completeness",
+        "points > 1 mm off",
+        "directly lit pixels with a right point",
+    ]);
     for m in &report.methods {
         let f = &m.figures;
-        md.push_str(&format!(
-            "| {} | {} | {:.2}% | {:.4} ({:.4}) | {:.4} ({:.4}%) | {:.4} | {:.4} | {:.1}% | {:.2}% | {:.2}% |\n",
-            m.method,
-            m.patterns,
-            100.0 * f.interreflection.within_half_column,
-            f.interreflection.rms_columns,
-            f.interreflection_covered.rms_columns,
-            f.e_d_mm,
-            m.e_d_percent_of_standoff,
-            f.e_no_i_mm,
-            f.e_wi_i_mm,
-            100.0 * f.completeness,
-            100.0 * m.points.wrong_share(),
-            100.0 * m.points.completeness()
-        ));
+        main.push(vec![
+            text(m.method.to_string()),
+            text(m.patterns.to_string()),
+            text(format!(
+                "{:.2}%",
+                100.0 * f.interreflection.within_half_column
+            )),
+            text(format!(
+                "{:.4} ({:.4})",
+                f.interreflection.rms_columns, f.interreflection_covered.rms_columns
+            )),
+            text(format!(
+                "{:.4} ({:.4}%)",
+                f.e_d_mm, m.e_d_percent_of_standoff
+            )),
+            text(format!("{:.4}", f.e_no_i_mm)),
+            text(format!("{:.4}", f.e_wi_i_mm)),
+            text(format!("{:.1}%", 100.0 * f.completeness)),
+            text(format!("{:.2}%", 100.0 * m.points.wrong_share())),
+            text(format!("{:.2}%", 100.0 * m.points.completeness())),
+        ]);
     }
+    blocks.push(Block::Table(main));
     if let (Some(b), Some(l)) = (
         report.methods.iter().find(|m| m.method == "BFSM"),
         report.methods.iter().find(|m| m.method == "LS"),
     ) {
-        md.push_str(&format!(
-            "\nBFSM against line scanning with the same number of patterns ({} and {}; paper Fig. 13, where BFSM \
+        blocks.push(Block::Paragraph(format!(
+            "BFSM against line scanning with the same number of patterns ({} and {}; paper Fig. 13, where BFSM \
              is about 10 times as accurate): plane-fit RMS without the mirror {:.4} mm against {:.4} mm ({:.1} \
-             times), with it {:.4} mm against {:.4} mm.\n",
+             times), with it {:.4} mm against {:.4} mm.",
             b.patterns,
             l.patterns,
             b.figures.e_no_i_mm,
@@ -471,44 +504,79 @@ pub fn markdown(report: &Report) -> String {
             l.figures.e_no_i_mm / b.figures.e_no_i_mm,
             b.figures.e_wi_i_mm,
             l.figures.e_wi_i_mm,
-        ));
+        )));
     }
-    md.push_str(
-        "\nEd: RMS distance between the points of the scans with and without the mirror. EnoI, EwiI: RMS \
+    blocks.push(Block::Paragraph(
+        "Ed: RMS distance between the points of the scans with and without the mirror. EnoI, EwiI: RMS \
          distance to a fitted plane without and with the mirror (paper Fig. 9). Column RMS: of the pixels within \
          0.5 column of the truth. Points > 1 mm off: the share of all output points more than 1 mm from the \
          true surface point of their pixel (a point on a pixel that sees no surface counts as off); directly lit \
          pixels with a right point: of the pixels the projector lights directly (away from edges), the share \
-         whose point is within 1 mm.\n\n",
-    );
-    md.push_str(
-        "\n## Glossy interreflection: `vgroove_glossy`\n\nTwo rough-metal facets (GGX, roughness 0.2) in a V: the \
-         light reflected facet to facet is about 13 times the direct light at the median pixel and spreads over \
-         tens of projector columns.\n\n| method | facet pixels | direct column among the candidates | with a point | \
-         points within 0.5 column | points > 1 mm off | directly lit pixels with a right point |\n\
-         |---|---|---|---|---|---|---|\n",
-    );
+         whose point is within 1 mm."
+            .into(),
+    ));
+    blocks.push(Block::Heading(
+        "Glossy interreflection: `vgroove_glossy`".into(),
+    ));
+    blocks.push(Block::Paragraph(
+        "Two rough-metal facets (GGX, roughness 0.2) in a V: the light reflected facet to facet is about 13 \
+         times the direct light at the median pixel and spreads over tens of projector columns."
+            .into(),
+    ));
+    let mut glossy = Table::new(&[
+        "method",
+        "facet pixels",
+        "direct column among the candidates",
+        "with a point",
+        "points within 0.5 column",
+        "points > 1 mm off",
+        "directly lit pixels with a right point",
+    ]);
     for m in &report.methods {
         let g = &m.glossy;
-        md.push_str(&format!(
-            "| {} | {} | {:.2}% | {:.1}% | {:.2}% | {:.2}% | {:.2}% |\n",
-            m.method,
-            g.pixels,
-            100.0 * g.direct_among_candidates,
-            100.0 * g.completeness,
-            100.0 * g.points_within_half_column,
-            100.0 * g.points.wrong_share(),
-            100.0 * g.points.completeness()
-        ));
+        glossy.push(vec![
+            text(m.method.to_string()),
+            text(g.pixels.to_string()),
+            text(format!("{:.2}%", 100.0 * g.direct_among_candidates)),
+            text(format!("{:.1}%", 100.0 * g.completeness)),
+            text(format!("{:.2}%", 100.0 * g.points_within_half_column)),
+            text(format!("{:.2}%", 100.0 * g.points.wrong_share())),
+            text(format!("{:.2}%", 100.0 * g.points.completeness())),
+        ]);
     }
-    md.push_str("\n| method | depth with the mirror | direct light | indirect light | column error (0–1 column) |\n|---|---|---|---|---|\n");
+    blocks.push(Block::Table(glossy));
+    // The pictures `run` wrote for each method, with what each shows.
+    let views = [
+        ("depth with the mirror", "plane_mirror/depth.png"),
+        ("direct light", "plane_mirror/direct.png"),
+        ("indirect light", "plane_mirror/indirect.png"),
+        ("column error (0–1 column)", "column_error.png"),
+    ];
+    let mut header = vec!["method"];
+    header.extend(views.iter().map(|(what, _)| *what));
+    let mut pictures = Table::new(&header);
     for m in &report.methods {
-        let d = m.method.to_lowercase();
-        md.push_str(&format!(
-            "| {} | ![]({d}/plane_mirror/depth.png) | ![]({d}/plane_mirror/direct.png) | ![]({d}/plane_mirror/indirect.png) | ![]({d}/column_error.png) |\n",
-            m.method
-        ));
+        let dir = m.method.to_lowercase();
+        let mut row = vec![text(m.method.to_string())];
+        row.extend(views.iter().map(|(what, file)| {
+            Cell::Picture(Picture {
+                path: format!("{dir}/{file}"),
+                alt: format!("{}: {what}", m.method),
+            })
+        }));
+        pictures.push(row);
     }
-    md.push_str("\nEach scan's points, depth and column maps are in `<method>/<scene>/` (`points.ply` opens in MeshLab, CloudCompare, Open3D).\n");
-    md
+    blocks.push(Block::Table(pictures));
+    blocks.push(Block::Paragraph(
+        "Each scan's points, depth and column maps are in `<method>/<scene>/` (`points.ply` opens in \
+         MeshLab, CloudCompare, Open3D)."
+            .into(),
+    ));
+    Document {
+        title: format!(
+            "fsm demo: a mirror's interreflection, {} methods",
+            report.methods.len()
+        ),
+        blocks,
+    }
 }
