@@ -26,7 +26,9 @@ use super::simulate::parse_size;
 /// among the candidates and the selected point is right.
 ///
 /// Writes into the output folder:
-///   report.md, report.json     the figures per method, with pictures
+///   report.html, report.md     the figures per method, with pictures (the same report,
+///                              for a browser and for a Markdown viewer)
+///   report.json                the same figures, for programs
 ///   <method>/<scene>/          each scan's outputs (as `fsm scan` writes them)
 ///   <method>/column_error.png  |decoded − true column| with the mirror (0 to 1 column)
 ///   interreflection.png        where the mirror's light exceeds 20% of the direct light
@@ -69,7 +71,14 @@ pub fn run(args: Args) -> Result<()> {
         &staged.file("report.md"),
         comparison::markdown(&report).as_bytes(),
     )?;
+    write_file(
+        &staged.file("report.html"),
+        comparison::html(&report).as_bytes(),
+    )?;
     let out = staged.commit()?;
-    eprintln!("fsm demo: report in {}", out.join("report.md").display());
+    eprintln!(
+        "fsm demo: report in {} (and report.md, report.json beside it)",
+        out.join("report.html").display()
+    );
     Ok(())
 }

@@ -4,6 +4,10 @@
 // A flat white wall in front of the projector, shared with fsm-io's tests.
 #[path = "../../../io/tests/suite/support/mod.rs"]
 mod flat_wall;
+// The demo's report.html checked strictly and read back beside report.md, shared with fsm-sim's
+// tests.
+#[path = "../../../sim/tests/suite/support/mod.rs"]
+mod report_pages;
 mod run;
 
 mod calibrate_files;

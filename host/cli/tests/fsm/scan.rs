@@ -5,6 +5,7 @@
 use std::fs;
 use std::path::Path;
 
+use crate::report_pages;
 use crate::run::{fsm, s, simulate};
 use ply_rs::parser::Parser;
 use ply_rs::ply::{DefaultElement, Property};
@@ -174,10 +175,15 @@ fn scan_refuses_a_calibration_of_another_projector_or_camera_and_leaves_nothing(
 fn the_demo_reports_the_papers_comparison() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
-    fsm()
+    let assert = fsm()
         .args(["demo", "--camera", "128x96", "--out", s(&out)])
         .assert()
         .success();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(
+        stderr.contains(&out.join("report.html").display().to_string()),
+        "{stderr}"
+    );
     let report: serde_json::Value =
         serde_json::from_slice(&fs::read(out.join("report.json")).unwrap()).unwrap();
     // Methods are looked up by name: the table's order is presentation, not contract.
@@ -260,6 +266,31 @@ fn the_demo_reports_the_papers_comparison() {
     ] {
         assert!(md.contains(picture), "{picture}");
         assert!(out.join(picture).is_file(), "{picture}");
+    }
+    // report.html: checked strictly (no browser runs in CI), the same outline as report.md
+    // (every table cell, paragraph and picture), its pictures in the folder.
+    let html = fs::read_to_string(out.join("report.html")).unwrap();
+    let page = report_pages::read_html(&html).unwrap_or_else(|e| panic!("report.html: {e}"));
+    assert_eq!(
+        page,
+        report_pages::read_markdown(&md),
+        "report.html vs report.md"
+    );
+    let methods = report["methods"].as_array().unwrap();
+    let tables = page.tables();
+    assert_eq!(tables.len(), 3, "main, glossy and picture tables");
+    for (header, rows) in tables {
+        let names: Vec<_> = rows.iter().map(|r| r[0].as_str()).collect();
+        let expected: Vec<_> = methods
+            .iter()
+            .map(|m| m["method"].as_str().unwrap())
+            .collect();
+        assert_eq!(names, expected, "the table headed {header:?}");
+    }
+    let pictures = page.pictures();
+    assert_eq!(pictures.len(), 1 + 4 * methods.len(), "{pictures:?}");
+    for picture in pictures {
+        assert!(out.join(&picture.src).is_file(), "{picture:?}");
     }
 }
 
