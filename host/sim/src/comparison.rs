@@ -442,7 +442,7 @@ fn document(report: &Report) -> Document {
          candidate, select the direct one semi-globally. BFSM and EFSM decode with the cosine search (the exact \
          inverse of their full band); `-CLEAN` rows decode the same captures with CLEAN on the zero-padded DFT, \
          `EFSM-fast` with the paper's local maxima. PS is phase shift with Gray codes, MPS Micro Phase Shifting \
-         (Gupta & Nayar), LS line scanning (one column per pattern, a Gaussian peak detector). Where a pixel's direct and mirrored columns fall within one \
+         (Gupta & Nayar), CE Code Ensemble (Gupta et al.: four binary codes, each bit with its inverse), LS line scanning (one column per pattern, a Gaussian peak detector). Where a pixel's direct and mirrored columns fall within one \
          footprint of each other modulo the block width (2Δc for the DFT searches), EFSM cannot separate them \
          (paper §IV-C): the decoder flags the pixel aliased and it gets no point, which the completeness column \
          shows.",

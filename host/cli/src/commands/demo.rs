@@ -10,20 +10,23 @@ use fsm_sim::System;
 
 use super::simulate::parse_size;
 
-/// Run the paper's comparison on simulated scenes: BFSM, EFSM and phase shift, with and
-/// without a mirror's interreflection, and under glossy interreflection.
+/// Run the paper's comparison on simulated scenes: FSM and the methods it is compared with
+/// (phase shift, Micro Phase Shifting, Code Ensemble, line scanning), with and without a
+/// mirror's interreflection, and under glossy interreflection.
 ///
 /// The bench scanner looks at a diffuse plane beside a planar mirror (`plane_mirror`): the
 /// plane receives the projector's light directly and through the mirror. The same scene with
 /// the mirror blackened (`plane_mirror_covered`) is the reference. Each is scanned with BFSM
 /// (768 patterns), EFSM (cB 64, two groups: 152 patterns), phase shift + Gray code (6 + 7
-/// patterns) and the EFSM patterns decoded by the local-maximum search (`EFSM-fast`, the
-/// camera's fast decoder), each through the same decode → triangulate → select path, and
-/// compared with the simulator's ground truth and with each other (paper Fig. 9: Ed, EnoI,
-/// EwiI). BFSM and EFSM are also decoded by CLEAN (`-CLEAN`, the DFT search the cosine search
-/// replaced). Every method also scans `vgroove_glossy` (two rough-metal facets whose light
-/// reflected facet to facet outshines the direct light): how often the direct column is
-/// among the candidates and the selected point is right.
+/// patterns), Micro Phase Shifting (17), Code Ensemble (80), line scanning (768) and the EFSM
+/// patterns decoded by the local-maximum search (`EFSM-fast`, the camera's fast decoder),
+/// each through the same decode → triangulate → select path, and compared with the
+/// simulator's ground truth and with each other (paper Fig. 9: Ed, EnoI, EwiI; Fig. 13: BFSM
+/// against line scanning with as many patterns). BFSM and EFSM are also decoded by CLEAN
+/// (`-CLEAN`, the DFT search the cosine search replaced). Every method also scans
+/// `vgroove_glossy` (two rough-metal facets whose light reflected facet to facet outshines the
+/// direct light): how often the direct column is among the candidates and the selected point
+/// is right.
 ///
 /// Writes into the output folder:
 ///   report.html, report.md     the figures per method, with pictures (the same report,
