@@ -39,13 +39,8 @@ fn scan() -> Scan {
     }
 }
 
-fn capture_file(scan: &Scan, frame: usize) -> PathBuf {
-    scan.captures.join(format!("{frame:04}.png"))
-}
-
-#[test]
-fn stack_and_dump_decode_to_identical_candidate_files() {
-    let scan = scan();
+/// `fsm convert` of the scan's images into `scan.dump` beside them.
+fn dump_of(scan: &Scan) -> PathBuf {
     let dump = scan.dir.path().join("scan.dump");
     ok(&[
         "convert",
@@ -58,6 +53,17 @@ fn stack_and_dump_decode_to_identical_candidate_files() {
         "--out",
         s(&dump),
     ]);
+    dump
+}
+
+fn capture_file(scan: &Scan, frame: usize) -> PathBuf {
+    scan.captures.join(format!("{frame:04}.png"))
+}
+
+#[test]
+fn stack_and_dump_decode_to_identical_candidate_files() {
+    let scan = scan();
+    let dump = dump_of(&scan);
     let from_stack = scan.dir.path().join("from-stack");
     let from_dump = scan.dir.path().join("from-dump");
     // Different budgets and threads: banding and batching must not change a byte.
@@ -253,18 +259,7 @@ fn a_bit_depth_too_small_for_the_samples_is_refused() {
 #[test]
 fn a_dump_decodes_under_other_decoder_settings_but_not_with_other_patterns() {
     let scan = scan();
-    let dump = scan.dir.path().join("scan.dump");
-    ok(&[
-        "convert",
-        "--plan",
-        s(&scan.plan),
-        "--images",
-        s(&scan.captures),
-        "--bit-depth",
-        "12",
-        "--out",
-        s(&dump),
-    ]);
+    let dump = dump_of(&scan);
     // The same patterns decoded with another threshold and fewer lights per pixel: the dump
     // names the patterns shown, not the decoder, so it decodes, and the candidate file names
     // the plan that decoded it.
@@ -336,18 +331,7 @@ fn a_dump_decodes_under_other_decoder_settings_but_not_with_other_patterns() {
 #[test]
 fn a_damaged_dump_is_refused_naming_the_row() {
     let scan = scan();
-    let dump = scan.dir.path().join("scan.dump");
-    ok(&[
-        "convert",
-        "--plan",
-        s(&scan.plan),
-        "--images",
-        s(&scan.captures),
-        "--bit-depth",
-        "12",
-        "--out",
-        s(&dump),
-    ]);
+    let dump = dump_of(&scan);
     // A flipped byte in row 2's record: the decode starts, fails naming the row, leaves nothing.
     let mut bytes = std::fs::read(&dump).unwrap();
     let record_len = (bytes.len() - 64) / 3;
