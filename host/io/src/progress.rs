@@ -11,6 +11,19 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 pub struct Progress {
     visible: bool,
     bar: Mutex<Option<ProgressBar>>,
+    /// Every stage started and its steps, drawn or not: what a test reads ([`Progress::stages`]).
+    stages: Mutex<Vec<Stage>>,
+}
+
+/// A stage of work as [`Progress`] recorded it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Stage {
+    /// What the stage does ("light transport").
+    pub message: &'static str,
+    /// Steps announced.
+    pub total: u64,
+    /// Steps reported done.
+    pub done: u64,
 }
 
 impl Progress {
@@ -19,6 +32,7 @@ impl Progress {
         Progress {
             visible: false,
             bar: Mutex::new(None),
+            stages: Mutex::new(Vec::new()),
         }
     }
 
@@ -27,11 +41,17 @@ impl Progress {
         Progress {
             visible: std::io::stderr().is_terminal(),
             bar: Mutex::new(None),
+            stages: Mutex::new(Vec::new()),
         }
     }
 
     /// Starts a stage of `total` steps.
     pub fn start(&self, total: u64, message: &'static str) {
+        self.stages.lock().expect("progress lock").push(Stage {
+            message,
+            total,
+            done: 0,
+        });
         let bar = if self.visible {
             let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
             bar.set_style(
@@ -52,9 +72,17 @@ impl Progress {
 
     /// Advances the current stage by `steps`.
     pub fn advance(&self, steps: u64) {
+        if let Some(stage) = self.stages.lock().expect("progress lock").last_mut() {
+            stage.done += steps;
+        }
         if let Some(bar) = self.bar.lock().expect("progress lock").as_ref() {
             bar.inc(steps);
         }
+    }
+
+    /// The stages started so far, with the steps each reported.
+    pub fn stages(&self) -> Vec<Stage> {
+        self.stages.lock().expect("progress lock").clone()
     }
 
     /// Ends the current stage and clears its bar.

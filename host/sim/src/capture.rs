@@ -16,6 +16,7 @@ use std::sync::Arc;
 
 use fsm_core::wire::row_dump::{self, RecordedWith, RowDumpHeader};
 use fsm_io::outputs::StagedFile;
+use fsm_io::progress::Progress;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Poisson, StandardNormal};
 use rand_pcg::Pcg64Mcg;
@@ -224,8 +225,9 @@ impl Capture {
     }
 
     /// Streams the whole capture as a row dump (SPEC §6, `fsm_core::wire::row_dump`): the
-    /// header, then every row in order. Needs a transport of every row.
-    pub fn write_row_dump(&self, mut out: impl Write) -> Result<(), SimError> {
+    /// header, then every row in order, each reported to `progress` (stage "rendering rows").
+    /// Needs a transport of every row.
+    pub fn write_row_dump(&self, mut out: impl Write, progress: &Progress) -> Result<(), SimError> {
         if self.rows() != (0..self.height()) {
             return Err(SimError::PartialCapture {
                 rows: self.rows(),
@@ -237,6 +239,7 @@ impl Capture {
             .record_len()
             .ok_or(SimError::Settings("row record too large".into()))?;
         out.write_all(&header.encode()).map_err(SimError::Io)?;
+        progress.start(self.height() as u64, "rendering rows");
         let mut start = 0;
         while start < self.height() {
             let end = (start + DUMP_CHUNK_ROWS).min(self.height());
@@ -253,18 +256,20 @@ impl Capture {
             for r in records {
                 out.write_all(&r?).map_err(SimError::Io)?;
             }
+            progress.advance((end - start) as u64);
             start = end;
         }
+        progress.finish();
         Ok(())
     }
 
     /// Writes the row dump to `path` whole or not at all (the workspace's one atomic writer,
     /// [`fsm_io::outputs::StagedFile`]).
-    pub fn write_row_dump_file(&self, path: &Path) -> Result<(), SimError> {
+    pub fn write_row_dump_file(&self, path: &Path, progress: &Progress) -> Result<(), SimError> {
         let io = |e: fsm_io::Error| SimError::Io(e.into_io_error());
         let result = (|| {
             let mut file = StagedFile::create(path).map_err(io)?;
-            self.write_row_dump(file.writer())?;
+            self.write_row_dump(file.writer(), progress)?;
             file.commit().map_err(io)
         })();
         result.map_err(|e| SimError::File {

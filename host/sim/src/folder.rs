@@ -6,34 +6,38 @@
 
 use std::path::Path;
 use std::str::FromStr;
+use std::sync::Arc;
 
 use fsm_core::ScanPlan;
 use fsm_io::image_files::{read_tiff_f32, write_png_gray16, write_png_gray8, write_tiff_f32};
 use fsm_io::outputs::write_file;
 use fsm_io::plan_file::{write_method_plan, write_plan, MethodPlan};
+use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 
 use crate::target::{self, BoardPose};
-use crate::{Capture, PatternSequence, Scene, Sensor, System, TransportSettings};
+use crate::{Capture, LightTransport, PatternSequence, Scene, Sensor, System, TransportSettings};
 
 /// A scene's folder: `plan.toml`, `calibration.toml`, `scan.dump` (or `images/0000.png…`
-/// with `images`), and `truth/` ([`write_truth`]). `dir` exists.
+/// with `images`), and `truth/` ([`write_truth`]). `dir` exists. The rows rendered are
+/// reported to `progress`.
 pub fn write_scene(
     dir: &Path,
     plan: &MethodPlan,
     system: &System,
     capture: &Capture,
     images: bool,
+    progress: &Progress,
 ) -> Result<()> {
     write_method_plan(plan, &dir.join("plan.toml"))?;
     write_calibration(system, &dir.join("calibration.toml"))?;
     if images {
         let images = dir.join("images");
         std::fs::create_dir(&images).map_err(|e| Error::io(&images, e))?;
-        write_stack(capture, &images)?;
+        write_stack(capture, &images, progress)?;
     } else {
         capture
-            .write_row_dump_file(&dir.join("scan.dump"))
+            .write_row_dump_file(&dir.join("scan.dump"), progress)
             .map_err(Error::from)?;
     }
     write_truth(capture, &dir.join("truth"))
@@ -175,21 +179,34 @@ impl FromStr for BoardPlacement {
     }
 }
 
-/// The scene's light transport (`supersampling` rays per pixel side, other settings default)
-/// and a capture of `plan` over it.
+/// The scene's light transport (`supersampling` rays per pixel side, other settings default;
+/// its rows reported to `progress`) and a capture of `plan` over it.
 pub fn capture_of(
     scene: &Scene,
     plan: &(impl PatternSequence + ?Sized),
     system: &System,
     seed: u64,
     supersampling: u32,
+    progress: &Progress,
 ) -> Result<Capture> {
     let settings = TransportSettings {
         supersampling,
         ..TransportSettings::default()
     };
-    crate::simulate_with(plan, scene, system, &Sensor::default(), seed, &settings)
-        .map_err(Error::from)
+    let transport = LightTransport::compute_rows_reporting(
+        scene,
+        system,
+        &settings,
+        0..system.height(),
+        progress,
+    )?;
+    Ok(Capture::new(
+        Arc::new(transport),
+        plan,
+        system,
+        Sensor::default(),
+        seed,
+    )?)
 }
 
 fn write_calibration(system: &System, path: &Path) -> Result<()> {
@@ -251,7 +268,9 @@ pub fn check_board_visible(
 }
 
 /// One board pose folder: the plan, the true calibration, the frames at the top (a captured
-/// stack of `fsm calibrate target`), the ground truth and the true corners.
+/// stack of `fsm calibrate target`), the ground truth and the true corners; the work
+/// reported to `progress`.
+#[allow(clippy::too_many_arguments)] // the pose, the system and the run's settings
 pub fn write_board_pose(
     dir: &Path,
     plan: &ScanPlan,
@@ -260,13 +279,14 @@ pub fn write_board_pose(
     placement: &BoardPlacement,
     seed: u64,
     supersampling: u32,
+    progress: &Progress,
 ) -> Result<()> {
     let pose = placement.pose(board);
     let scene = Scene::checkerboard(board, &pose);
-    let capture = capture_of(&scene, plan, system, seed, supersampling)?;
+    let capture = capture_of(&scene, plan, system, seed, supersampling, progress)?;
     write_plan(plan, &dir.join("plan.toml"))?;
     write_calibration(system, &dir.join("calibration.toml"))?;
-    write_stack(&capture, dir)?;
+    write_stack(&capture, dir, progress)?;
     let truth = dir.join("truth");
     write_truth(&capture, &truth)?;
     let json = corners_json(system, board, &pose, placement);
@@ -338,17 +358,21 @@ pub fn corners_json(
 }
 
 /// One 16-bit PNG per frame in `dir` (which exists), numbered in sequence order like the
-/// patterns.
-pub fn write_stack(capture: &Capture, dir: &Path) -> Result<()> {
+/// patterns; the rows rendered, then the images written, reported to `progress`.
+pub fn write_stack(capture: &Capture, dir: &Path, progress: &Progress) -> Result<()> {
     let (w, h) = (capture.width() as usize, capture.height() as usize);
     let frames = capture.frame_count();
     let mut images = vec![0u16; frames * w * h];
+    progress.start(h as u64, "rendering rows");
     for y in 0..h {
         let row = capture.row(y as u32).map_err(Error::from)?;
         for i in 0..frames {
             images[(i * h + y) * w..(i * h + y + 1) * w].copy_from_slice(&row[i * w..(i + 1) * w]);
         }
+        progress.advance(1);
     }
+    progress.finish();
+    progress.start(frames as u64, "writing images");
     for i in 0..frames {
         let path = dir.join(format!("{i:04}.png"));
         let mut bytes = Vec::new();
@@ -363,7 +387,9 @@ pub fn write_stack(capture: &Capture, dir: &Path) -> Result<()> {
             message: e.0,
         })?;
         write_file(&path, &bytes)?;
+        progress.advance(1);
     }
+    progress.finish();
     Ok(())
 }
 

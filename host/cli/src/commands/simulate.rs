@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use fsm_calibrate::board::Checkerboard;
 use fsm_io::outputs::{write_file, StagedDir};
 use fsm_io::plan_file::{MethodPlan, Preset};
+use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 use fsm_sim::folder::{self, BoardPlacement, SPREAD};
 use fsm_sim::scene::presets::NAMES;
@@ -147,14 +148,23 @@ pub fn run(args: Args) -> Result<()> {
     let scene = Scene::by_name(&args.scene).map_err(Error::from)?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     let staged = StagedDir::create(&args.out, args.force)?;
+    let progress = Progress::stderr();
     let capture = folder::capture_of(
         &scene,
         plan.patterns(),
         &system,
         args.seed,
         args.supersampling,
+        &progress,
     )?;
-    folder::write_scene(staged.path(), &plan, &system, &capture, args.images)?;
+    folder::write_scene(
+        staged.path(),
+        &plan,
+        &system,
+        &capture,
+        args.images,
+        &progress,
+    )?;
     let out = staged.commit()?;
     eprintln!(
         "simulated {} ({}x{}, {} frames, seed {}) -> {}",
@@ -255,6 +265,7 @@ fn run_board(args: Args) -> Result<()> {
             placement,
             seed,
             args.supersampling,
+            &Progress::stderr(),
         )?;
         let name = folder.as_deref().unwrap_or("pose");
         eprintln!(

@@ -23,6 +23,7 @@ pub mod paths;
 
 use std::ops::Range;
 
+use fsm_io::progress::Progress;
 use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
 
@@ -161,6 +162,18 @@ impl LightTransport {
         settings: &TransportSettings,
         rows: Range<u32>,
     ) -> Result<LightTransport, SimError> {
+        Self::compute_rows_reporting(scene, system, settings, rows, &Progress::hidden())
+    }
+
+    /// [`LightTransport::compute_rows`], reporting each row done to `progress` (a stage
+    /// "light transport" of one step per row): at a few megapixels this takes minutes.
+    pub fn compute_rows_reporting(
+        scene: &Scene,
+        system: &System,
+        settings: &TransportSettings,
+        rows: Range<u32>,
+        progress: &Progress,
+    ) -> Result<LightTransport, SimError> {
         system.validate().map_err(SimError::System)?;
         if rows.is_empty() || rows.end > system.height() {
             return Err(SimError::Rows {
@@ -208,8 +221,17 @@ impl LightTransport {
                 .map(|s| AmbientReflectance::of(&s.material))
                 .collect(),
         };
-        let computed: Vec<(RowTransport, Vec<PixelTruth>)> =
-            rows.clone().into_par_iter().map(|y| ctx.row(y)).collect();
+        progress.start(rows.len() as u64, "light transport");
+        let computed: Vec<(RowTransport, Vec<PixelTruth>)> = rows
+            .clone()
+            .into_par_iter()
+            .map(|y| {
+                let row = ctx.row(y);
+                progress.advance(1);
+                row
+            })
+            .collect();
+        progress.finish();
         let mut truth = Vec::with_capacity(computed.len() * system.width() as usize);
         let mut out = Vec::with_capacity(computed.len());
         for (row, t) in computed {

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use fsm_core::wire::row_dump::{decode_record, RowDumpHeader};
 use fsm_core::{GroupCount, ScanPlan};
+use fsm_io::progress::{Progress, Stage};
 use fsm_sim::radiometry::{lambertian_signal, BlurKernel};
 use fsm_sim::scene::presets::NAMES;
 use fsm_sim::transport::paths::{arrivals, DiffusePoint};
@@ -330,7 +331,7 @@ fn rows_are_reproducible_and_independent_of_the_band() {
     assert_ne!(a.row(102).unwrap(), c.row(102).unwrap());
     assert!(matches!(a.row(104), Err(SimError::Rows { .. })));
     assert!(matches!(
-        a.write_row_dump(Vec::new()),
+        a.write_row_dump(Vec::new(), &Progress::hidden()),
         Err(SimError::PartialCapture { .. })
     ));
 }
@@ -343,7 +344,17 @@ fn row_dump_round_trips_through_the_core_reader() {
     let capture =
         fsm_sim::simulate(&plan, &scene, &system, &Sensor::with_bit_depth(10), 1).unwrap();
     let mut bytes = Vec::new();
-    capture.write_row_dump(&mut bytes).unwrap();
+    let progress = Progress::hidden();
+    capture.write_row_dump(&mut bytes, &progress).unwrap();
+    // Every row is reported, in one stage.
+    assert_eq!(
+        progress.stages(),
+        [Stage {
+            message: "rendering rows",
+            total: 30,
+            done: 30
+        }]
+    );
     let header = RowDumpHeader::decode(&bytes).unwrap();
     header.check_plan(&plan).unwrap();
     assert_eq!(
@@ -361,12 +372,17 @@ fn row_dump_round_trips_through_the_core_reader() {
     }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scan.fsmrows");
-    capture.write_row_dump_file(&path).unwrap();
+    capture
+        .write_row_dump_file(&path, &Progress::hidden())
+        .unwrap();
     assert_eq!(std::fs::read(&path).unwrap(), bytes);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     // A failed write leaves nothing behind and names the file.
     let err = capture
-        .write_row_dump_file(&dir.path().join("missing/scan.fsmrows"))
+        .write_row_dump_file(
+            &dir.path().join("missing/scan.fsmrows"),
+            &Progress::hidden(),
+        )
         .unwrap_err();
     assert!(err.to_string().contains("missing/scan.fsmrows"), "{err}");
 }
@@ -440,4 +456,30 @@ proptest! {
         let tolerance = ripple;
         prop_assert!((centroid - u).abs() <= tolerance, "{centroid} vs {u}");
     }
+}
+
+#[test]
+fn a_simulated_folder_reports_the_transport_and_the_rendering_row_by_row() {
+    let system = System::bench_with_camera(40, 30);
+    let plan = fsm_io::plan_file::MethodPlan::Fsm(ScanPlan::paper_efsm(GroupCount::One));
+    let scene = Scene::preset("plane").unwrap();
+    let progress = Progress::hidden();
+    let capture =
+        fsm_sim::folder::capture_of(&scene, plan.patterns(), &system, 1, 1, &progress).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    fsm_sim::folder::write_scene(dir.path(), &plan, &system, &capture, true, &progress).unwrap();
+    let frames = plan.frame_count() as u64;
+    let stage = |message, total| Stage {
+        message,
+        total,
+        done: total,
+    };
+    assert_eq!(
+        progress.stages(),
+        [
+            stage("light transport", 30),
+            stage("rendering rows", 30),
+            stage("writing images", frames)
+        ]
+    );
 }
