@@ -12,6 +12,15 @@
 #   --timeout SECS   kill QEMU after SECS seconds (default $QEMU_TIMEOUT or 60): exit code 124
 #   --trace FILE     also log every executed instruction's PC (-d exec,nochain + -singlestep)
 #                    to FILE, for an independent instruction count (slow, large)
+#   --serve-uart PORT  serve the host protocol on a UART for ever (descriptor {"UART", index}
+#                    at 0x03FFFFD8): the UART's bytes go through QEMU's UART model to a TCP
+#                    server on 127.0.0.1:PORT (`-serial tcp:...,server=on,wait=off`), where
+#                    `fsm camera info --device tcp://127.0.0.1:PORT` talks to the firmware.
+#                    One host at a time; the next connects when it leaves. No input file,
+#                    --plan or --selftest. No time-out unless --timeout is given; without
+#                    one QEMU replaces this script (exec): killing its PID stops QEMU.
+#   --uart N         with --serve-uart: UART0 (QEMU's first -serial, 0xE0000000) or UART1
+#                    (the second, 0xE0001000; the ZedBoard's USB-UART). Default 1.
 #
 # The input file (at most 64 MiB) is placed raw at 0x04000000 with QEMU's generic loader and
 # its length in the descriptor {"FSMI", length} at 0x03FFFFF0 (src/layout.rs).
@@ -19,7 +28,8 @@
 # messages to stderr. Semihosting file paths (fw-candidates.bin, defmt.bin) are relative to the
 # current directory.
 # Exit status: QEMU's, i.e. the firmware's semihosting exit code (0 = success, 101 = panic,
-# 102 = CPU exception), 124 on timeout.
+# 102 = CPU exception), 124 on timeout. With --serve-uart the firmware never exits: QEMU runs
+# until it is killed.
 set -euo pipefail
 
 QEMU="${QEMU:-qemu-system-arm}"
@@ -29,15 +39,20 @@ SHIFT="${ICOUNT_SHIFT:-4}"
 SELFTEST=""
 TRACE=""
 PLAN=""
+SERVE_PORT=""
+UART_INDEX=1
+TIMEOUT_GIVEN=0
 
-usage() { sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,33p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
     case "$1" in
         --icount) ICOUNT=1 ;;
         --plan) [ $# -ge 2 ] || usage; PLAN="$2"; shift ;;
         --selftest) [ $# -ge 2 ] || usage; SELFTEST="$2"; shift ;;
-        --timeout) [ $# -ge 2 ] || usage; TIMEOUT="$2"; shift ;;
+        --timeout) [ $# -ge 2 ] || usage; TIMEOUT="$2"; TIMEOUT_GIVEN=1; shift ;;
+        --serve-uart) [ $# -ge 2 ] || usage; SERVE_PORT="$2"; shift ;;
+        --uart) [ $# -ge 2 ] || usage; UART_INDEX="$2"; shift ;;
         --trace) [ $# -ge 2 ] || usage; TRACE="$2"; shift ;;
         -h|--help) usage ;;
         --) shift; break ;;
@@ -59,20 +74,41 @@ INPUT_DESC=0x03fffff0
 ICOUNT_DESC=0x03ffffe8
 SELFTEST_DESC=0x03ffffe0
 PLAN_DESC=0x03ffff00
+UART_DESC=0x03ffffd8
 PLAN_BYTES=0x03ffff08
 MAGIC_FSMI=0x494d5346   # "FSMI"
 MAGIC_ICNT=0x544e4349   # "ICNT"
 MAGIC_TEST=0x54534554   # "TEST"
 MAGIC_PLAN=0x4e414c50   # "PLAN"
+MAGIC_UART=0x54524155   # "UART"
 
 word() { # addr value: one little-endian u32 written by QEMU's generic loader
     printf -- '-device\nloader,addr=%s,data=%s,data-len=4\n' "$1" "$2"
 }
 
+# The first -serial is UART0, the second UART1 (QEMU's xilinx_zynq.c).
+serial=(-serial null)
+if [ -n "$SERVE_PORT" ]; then
+    case "$SERVE_PORT" in ''|*[!0-9]*) echo "run-qemu: --serve-uart PORT must be a number" >&2; exit 2 ;; esac
+    [ "$SERVE_PORT" -ge 1 ] && [ "$SERVE_PORT" -le 65535 ] || { echo "run-qemu: port $SERVE_PORT is not 1..65535" >&2; exit 2; }
+    [ -z "$INPUT" ] && [ -z "$PLAN" ] && [ -z "$SELFTEST" ] \
+        || { echo "run-qemu: --serve-uart takes no input file, --plan or --selftest" >&2; exit 2; }
+    tcp="tcp:127.0.0.1:$SERVE_PORT,server=on,wait=off"
+    case "$UART_INDEX" in
+        0) serial=(-serial "$tcp" -serial null) ;;
+        1) serial=(-serial null -serial "$tcp") ;;
+        *) echo "run-qemu: --uart must be 0 or 1" >&2; exit 2 ;;
+    esac
+fi
+
 # `-semihosting` alone would print the firmware's console output on QEMU's stderr (QEMU 7.2);
 # routing it through a stdio chardev puts it on stdout, leaving stderr to QEMU and this script.
-args=(-M xilinx-zynq-a9 -nographic -monitor none -serial null
+args=(-M xilinx-zynq-a9 -nographic -monitor none "${serial[@]}"
       -chardev stdio,id=semihost -semihosting-config enable=on,target=native,chardev=semihost)
+
+if [ -n "$SERVE_PORT" ]; then
+    mapfile -t -O "${#args[@]}" args < <(word "$UART_DESC" "$MAGIC_UART"; word "$((0x03ffffdc))" "$UART_INDEX")
+fi
 
 if [ -n "$INPUT" ]; then
     [ -f "$INPUT" ] || { echo "run-qemu: no such input file: $INPUT" >&2; exit 2; }
@@ -113,6 +149,11 @@ if [ -n "$TRACE" ]; then
 fi
 
 args+=(-kernel "$ELF")
+
+if [ -n "$SERVE_PORT" ] && [ "$TIMEOUT_GIVEN" = 0 ]; then
+    echo "run-qemu: serving on UART$UART_INDEX at tcp://127.0.0.1:$SERVE_PORT" >&2
+    exec "$QEMU" "${args[@]}" </dev/null
+fi
 
 start=$(date +%s%N)
 set +e

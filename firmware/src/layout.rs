@@ -89,9 +89,32 @@ pub fn selftest() -> Option<SelfTest> {
     }
 }
 
+/// Address of the UART descriptor: `u32` magic [`UART_MAGIC`], then `u32` the UART's index
+/// (0: UART0 at 0xE000_0000, 1: UART1 at 0xE000_1000). Written by `scripts/run-qemu.sh
+/// --serve-uart PORT`: the firmware then serves the protocol on that UART, session after
+/// session, instead of looking at the other mailboxes, and makes no semihosting call.
+pub const UART_DESC_ADDR: usize = 0x03FF_FFD8;
+/// "UART" as a little-endian `u32`.
+pub const UART_MAGIC: u32 = u32::from_le_bytes(*b"UART");
+
+/// The UART index from a descriptor, if valid.
+pub fn uart_from_descriptor(magic: u32, index: u32) -> Option<u8> {
+    (magic == UART_MAGIC && index <= 1).then_some(index as u8)
+}
+
+/// The UART to serve on, if a valid descriptor is present.
+#[cfg(target_os = "none")]
+pub fn uart() -> Option<u8> {
+    let d = UART_DESC_ADDR as *const u32;
+    // SAFETY: fixed mailbox address in DDR outside the image (see link.x).
+    let (magic, index) = unsafe { (d.read_volatile(), d.add(1).read_volatile()) };
+    uart_from_descriptor(magic, index)
+}
+
 const _: () = assert!(
     RAM_END <= PLAN_DESC_ADDR
-        && PLAN_BYTES_ADDR + fsm_core::wire::plan::PLAN_LEN <= SELFTEST_DESC_ADDR
+        && PLAN_BYTES_ADDR + fsm_core::wire::plan::PLAN_LEN <= UART_DESC_ADDR
+        && UART_DESC_ADDR + 8 <= SELFTEST_DESC_ADDR
 );
 const _: () = assert!(
     RAM_END <= SELFTEST_DESC_ADDR && SELFTEST_DESC_ADDR + 8 <= crate::icount::ICOUNT_DESC_ADDR
@@ -129,6 +152,15 @@ mod tests {
         assert_eq!(SelfTest::from_word(0x100 + 7), Some(SelfTest::Exit(7)));
         assert_eq!(SelfTest::from_word(0x100), None);
         assert_eq!(SelfTest::from_word(0), None);
+    }
+
+    #[test]
+    fn uart_descriptor() {
+        assert_eq!(UART_MAGIC, 0x5452_4155);
+        assert_eq!(uart_from_descriptor(UART_MAGIC, 0), Some(0));
+        assert_eq!(uart_from_descriptor(UART_MAGIC, 1), Some(1));
+        assert_eq!(uart_from_descriptor(UART_MAGIC, 2), None);
+        assert_eq!(uart_from_descriptor(PLAN_MAGIC, 1), None);
     }
 
     #[test]

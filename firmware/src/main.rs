@@ -7,7 +7,10 @@
 //!   exact instruction counts (`BENCH ...`);
 //! - anything else is a recorded stream of request frames (a host session): serve it with the
 //!   protocol device loop and write every response frame to `fw-link.bin`;
-//! - no input: print the limits and exit 0.
+//! - no input: print the limits and exit 0;
+//! - a UART descriptor (`run-qemu.sh --serve-uart PORT`): print `SERVE UART<n> ...` once the
+//!   UART receives, then serve the protocol on it, session after session, for ever, without
+//!   another semihosting call (see `serve_uart`).
 //!
 //! Output files are written under a `.part` name and renamed when whole.
 //!
@@ -21,7 +24,9 @@ mod fw {
 
     use fsm_core::{Method, ScanPlan};
     use fsm_firmware::arm::cpu::global_timer_ticks;
+    use fsm_firmware::arm::cpu::QEMU_NS_PER_GTIMER_TICK;
     use fsm_firmware::arm::semihosting::{self, exit, File, Mode};
+    use fsm_firmware::arm::uart::{Port, Uart, BAUD};
     use fsm_firmware::batch::{self, BatchMemory, Sink};
     use fsm_firmware::device::{Device, Replay};
     use fsm_firmware::layout::{self, SelfTest};
@@ -39,6 +44,23 @@ mod fw {
 
     /// Every buffer of the camera, in .bss.
     static mut STORAGE: Storage = Storage::new();
+
+    /// Silence inside a frame after which a UART session ends (the half frame is dropped):
+    /// 2 s of the global timer at QEMU's rate. On a Zynq at 667 MHz the timer runs at 333 MHz
+    /// (CPU/2), which makes it 0.6 s there, still thousands of byte times at 115,200 baud.
+    const UART_FRAME_TIMEOUT_TICKS: u64 = 2_000_000_000 / QEMU_NS_PER_GTIMER_TICK;
+
+    /// Serves the protocol on a UART for ever: a session ends when a frame stops half way
+    /// (the time-out), and the next begins with the plan still loaded. Nothing here calls
+    /// semihosting, so that a board without a debugger can run it; only a panic or a CPU
+    /// exception would (and then parks the CPU: `arm::fsm_fw_exception`).
+    fn serve_uart(mut uart: Uart, storage: &'static mut Storage) -> ! {
+        let mut device = Device::new(storage.memory());
+        loop {
+            // A UART never closes: `serve` returns on a frame time-out only.
+            let _ = device.serve(&mut uart);
+        }
+    }
 
     /// Take a failure path on request (scripts/run-qemu.sh --selftest ...).
     fn selftest(t: SelfTest) -> ! {
@@ -351,6 +373,21 @@ mod fw {
 
     #[no_mangle]
     pub extern "C" fn fw_main() -> ! {
+        // SAFETY: the only reference to STORAGE, taken once.
+        let storage: &'static mut Storage = unsafe { &mut *addr_of_mut!(STORAGE) };
+        // Before the banner: serving over a UART makes no semihosting call but one. The
+        // descriptor comes from QEMU's loader, so a semihosting host is there to print that
+        // the UART is ready: a host that sends before RX is enabled loses its bytes (UG585;
+        // QEMU's model drops them too). A board booting into `serve_uart` would skip the line.
+        if let Some((index, port)) = layout::uart().and_then(|i| Some((i, Port::from_index(i)?))) {
+            let uart = Uart::new(port, UART_FRAME_TIMEOUT_TICKS);
+            hprintln!(
+                "SERVE UART{} at {} baud, 8N1: the host protocol, session after session",
+                index,
+                BAUD
+            );
+            serve_uart(uart, storage)
+        }
         hprintln!(
             "fsm-firmware {} (armv7a-none-eabihf, Cortex-A9): buffers {} bytes, rows up to {} pixels / {} samples, {} candidates per pixel",
             env!("CARGO_PKG_VERSION"),
@@ -374,8 +411,6 @@ mod fw {
                 }
             );
         }
-        // SAFETY: the only reference to STORAGE, taken once.
-        let storage: &'static mut Storage = unsafe { &mut *addr_of_mut!(STORAGE) };
         let is_dump = |input: &[u8]| input.starts_with(&fsm_core::wire::row_dump::MAGIC);
         match (layout::input(), layout::plan()) {
             (Some(requests), None) if !is_dump(requests) => {

@@ -1,9 +1,11 @@
 //! Everything that only exists on the bare-metal target (`target_os = "none"`): start-up code,
-//! exception vectors, CPU set-up, semihosting, the panic handler and the defmt global logger.
+//! exception vectors, CPU set-up, semihosting, the UART, the panic handler and the defmt global
+//! logger.
 
 pub mod cpu;
 pub mod semihosting;
 mod start;
+pub mod uart;
 
 #[cfg(feature = "defmt")]
 pub mod logger;
