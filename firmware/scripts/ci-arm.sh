@@ -3,8 +3,8 @@
 # is missing, build the ARM ELF, cross-check its candidates against the host's decode under
 # QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections, on the firmware's
 # own mirror scene and on the simulator's plane_mirror, with CLEAN and with the local-maximum
-# search), check how it
-# refuses bad input, the determinism of its instruction counts, every failure path's exit
+# search), drive it with the host CLI over its UART (`fsm camera info`, `fsm camera scan`),
+# check how it refuses bad input, the determinism of its instruction counts, every failure path's exit
 # code, the Rust cross-check test, and (if defmt-print is installed) defmt logging.
 # Non-interactive. Ends with the line `N passed, M failed` and exits non-zero if anything failed.
 #
@@ -120,6 +120,33 @@ simulate paper-efsm-2-fast sim-fast || fast_ok=0
 crosscheck_dumps "$fast_ok" crosscheck-fast \
     "with the local-maximum search (BFSM mirror scene, EFSM 2 groups plane_mirror, 32 rows x 48 pixels)" \
     "$WORK/fast-bfsm.dump" "$WORK/fast-bfsm.plan" "$WORK/sim-fast/scan.dump" "$WORK/sim-fast/plan.bin"
+
+# 2d. The host CLI against the firmware serving on its UART (run-qemu.sh --serve-uart: UART1's
+#     bytes go to a TCP socket): `fsm camera info`, then `fsm camera scan` of the simulator's
+#     plane_mirror dump (two-group EFSM, 32 rows x 48 pixels), compared with the host's decode.
+uart_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+"$S/run-qemu.sh" --serve-uart "$uart_port" "$ELF" >uart-console.txt 2>uart-qemu.txt &
+uart_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
+for _ in $(seq 150); do
+    grep -q '^SERVE UART1' uart-console.txt && break
+    sleep 0.2
+done
+uart_dev="tcp://127.0.0.1:$uart_port"
+if [ "$sim_ok" = 1 ] && grep -q '^SERVE UART1' uart-console.txt \
+    && "$FSM" camera info --device "$uart_dev" >uart-info.txt 2>&1 \
+    && grep -q '^max pixels per row *2048' uart-info.txt \
+    && "$FSM" camera scan --plan sim-paper-efsm-2/plan.toml --dump sim-paper-efsm-2/scan.dump \
+        --device "$uart_dev" --out uart.cand --timeout 60 2>uart-scan.txt \
+    && "$TOOL" decode --plan sim-paper-efsm-2/plan.bin --dump sim-paper-efsm-2/scan.dump --out uart-host.cand \
+    && "$TOOL" compare uart-host.cand uart.cand --min-rows 32 >uart-compare.txt; then
+    cat uart-scan.txt
+    ok "fsm camera info and fsm camera scan over the firmware's UART (QEMU, $uart_dev): candidates bit-identical"
+else
+    cat uart-console.txt uart-qemu.txt uart-info.txt uart-scan.txt uart-compare.txt 2>/dev/null || true
+    bad "fsm camera info / scan over the firmware's UART"
+fi
+kill "$uart_qemu" 2>/dev/null || true
+wait "$uart_qemu" 2>/dev/null || true
 
 # 3. Bad input: a dump of another plan, a truncated dump. Refused with a message naming what is
 #    wrong, exit code 3, and no candidate file left behind.
