@@ -305,9 +305,9 @@ impl Drop for UartCamera {
 
 /// Scans `rows` rows of the mirror scene through `client`; checks the candidates against the
 /// host's decode, byte for byte. Returns the seconds the scan took (plan upload included).
-/// Measured here: 27 to 43 kB/s up through QEMU's UART model (its 64-byte FIFO refilled by
-/// QEMU's main loop), i.e. 4 to 5 EFSM or 1 BFSM row of 24 pixels a second; a board at
-/// 115,200 baud moves 11.5 kB/s.
+/// Measured here: 27 to 54 kB/s up through QEMU's UART model (its 64-byte FIFO refilled by
+/// QEMU's main loop), i.e. 4 to 5 EFSM or 1 to 1.5 BFSM rows of 24 pixels a second; a board
+/// at 115,200 baud moves 11.5 kB/s.
 fn uart_scan(
     camera: &UartCamera,
     client: &mut Client<Box<dyn fsm_protocol::transport::Link>>,
