@@ -193,15 +193,6 @@ impl MethodPlan {
         self.patterns().pattern_fingerprint()
     }
 
-    /// Whether a candidate file (or a version-1 dump) with fingerprint `f` was made with this
-    /// plan (an FSM plan also answers to its version-1 fingerprint: [`ScanPlan::has_fingerprint`]).
-    pub fn has_fingerprint(&self, f: u64) -> bool {
-        match self {
-            MethodPlan::Fsm(p) => p.has_fingerprint(f),
-            other => other.fingerprint() == f,
-        }
-    }
-
     /// The noise RMS of one column of a dark pixel's light profile, sensor DN
     /// ([`fsm_core::Decoder::dark_column_noise_dn`]): what a point's quality is measured in.
     /// `None` where the method has no such scale (FSM's DFT searches, the baselines).

@@ -6,7 +6,6 @@
 
 use std::path::Path;
 use std::str::FromStr;
-use std::sync::Arc;
 
 use fsm_core::ScanPlan;
 use fsm_io::image_files::{read_tiff_f32, write_png_gray16, write_png_gray8, write_tiff_f32};
@@ -16,7 +15,7 @@ use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 
 use crate::target::{self, BoardPose};
-use crate::{Capture, LightTransport, PatternSequence, Scene, Sensor, System, TransportSettings};
+use crate::{Capture, PatternSequence, Scene, Sensor, System, TransportSettings};
 
 /// A scene's folder: `plan.toml`, `calibration.toml`, `scan.dump` (or `images/0000.png…`
 /// with `images`), and `truth/` ([`write_truth`]). `dir` exists. The rows rendered are
@@ -193,20 +192,16 @@ pub fn capture_of(
         supersampling,
         ..TransportSettings::default()
     };
-    let transport = LightTransport::compute_rows_reporting(
+    crate::simulate_with(
+        plan,
         scene,
         system,
-        &settings,
-        0..system.height(),
-        progress,
-    )?;
-    Ok(Capture::new(
-        Arc::new(transport),
-        plan,
-        system,
-        Sensor::default(),
+        &Sensor::default(),
         seed,
-    )?)
+        &settings,
+        progress,
+    )
+    .map_err(Error::from)
 }
 
 fn write_calibration(system: &System, path: &Path) -> Result<()> {

@@ -64,6 +64,8 @@ pub mod truth;
 
 use std::sync::Arc;
 
+use fsm_io::progress::Progress;
+
 pub use capture::Capture;
 pub use error::SimError;
 pub use fsm_core::PatternSequence;
@@ -98,10 +100,12 @@ pub fn simulate(
         sensor,
         seed,
         &TransportSettings::default(),
+        &Progress::hidden(),
     )
 }
 
-/// [`simulate`] with the light transport's `settings` (e.g. more rays per pixel).
+/// [`simulate`] with the light transport's `settings` (e.g. more rays per pixel), its rows
+/// reported to `progress` ([`LightTransport::compute_rows_reporting`]).
 pub fn simulate_with(
     patterns: &(impl PatternSequence + ?Sized),
     scene: &Scene,
@@ -109,7 +113,10 @@ pub fn simulate_with(
     sensor: &Sensor,
     seed: u64,
     settings: &TransportSettings,
+    progress: &Progress,
 ) -> Result<Capture, SimError> {
-    let transport = LightTransport::compute(scene, system, settings)?;
+    let rows = 0..system.height();
+    let transport =
+        LightTransport::compute_rows_reporting(scene, system, settings, rows, progress)?;
     Capture::new(Arc::new(transport), patterns, system, *sensor, seed)
 }

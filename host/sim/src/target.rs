@@ -296,6 +296,7 @@ pub fn white_frame(
         &sensor.copied().unwrap_or_default(),
         seed,
         &settings,
+        &fsm_io::progress::Progress::hidden(),
     )?;
     let w = capture.width() as usize;
     let rows: Vec<Result<Vec<f32>, SimError>> = capture

@@ -71,8 +71,17 @@ fn scan(plan: &ScanPlan, scene: &Scene, system: &System, seed: u64) -> (Vec<f32>
         supersampling: SUPERSAMPLING,
         ..TransportSettings::default()
     };
-    let capture =
-        simulate_with(plan, scene, system, &Sensor::default(), seed, &settings).expect("simulates");
+    let progress = fsm_io::progress::Progress::hidden();
+    let capture = simulate_with(
+        plan,
+        scene,
+        system,
+        &Sensor::default(),
+        seed,
+        &settings,
+        &progress,
+    )
+    .expect("simulates");
     let mut tables = vec![0.0; Decoder::tables_len(plan)];
     let decoder = Decoder::new(plan, &mut tables).expect("valid plan");
     let mut scratch = vec![0.0; Decoder::scratch_len(plan)];
