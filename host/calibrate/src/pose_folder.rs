@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use fsm_core::ScanPlan;
+use fsm_io::candidate_file::HostCandidates;
 use fsm_io::capture::Capture;
 use fsm_io::column_map::COLUMN_TIFF_NAME;
 use fsm_io::decode::{decode_capture, DecodeOptions};
@@ -101,7 +102,9 @@ pub fn load_pose(
         *v -= d;
     }
     let mut columns = vec![f32::NAN; w as usize * h as usize];
-    decode_capture(plan, &capture, options, &Progress::stderr(), |row| {
+    // Only the strongest columns are kept: nothing of the candidates.
+    let keep = |_: u32, _: &[HostCandidates]| Ok(());
+    decode_capture(plan, &capture, options, &Progress::stderr(), keep, |row| {
         let y = row.row as usize * w as usize;
         columns[y..y + w as usize].copy_from_slice(&row.strongest);
         Ok(())

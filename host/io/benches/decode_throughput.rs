@@ -127,12 +127,18 @@ fn decode_all(plan: &ScanPlan, batches: &mut RowBatches<'_>, threads: usize) -> 
     };
     let mut map = fsm_io::column_map::ColumnMap::new(batches.width(), batches.height());
     let mut bytes = 0usize;
-    let summary = decode::decode_batches(plan, batches, &options, &Progress::hidden(), |row| {
-        bytes += row.record.len();
-        map.set_row_columns(row.row, &row.strongest);
-        Ok(())
-    })
-    .unwrap();
+    let keep = decode::candidate_record(decode::candidate_header(
+        plan,
+        batches.width(),
+        batches.height(),
+    ));
+    let summary =
+        decode::decode_batches(plan, batches, &options, &Progress::hidden(), keep, |row| {
+            bytes += row.kept.len();
+            map.set_row_columns(row.row, &row.strongest);
+            Ok(())
+        })
+        .unwrap();
     assert!(bytes > 0);
     summary
 }

@@ -4,11 +4,13 @@
 //! One [`Decoder`] per plan, shared by every thread (it only reads its tables); each thread
 //! has its own scratch and candidate buffers. Rows arrive in batches from a
 //! [`RowBatches`] source (stack bands or dump records, within the memory budget); a batch is
-//! decoded in chunks of a few rows per thread so that the decoded records held at once stay
-//! small; each row becomes its compact candidate record (the wire format of
-//! [`fsm_core::wire::candidates`]) and its strongest columns right away. Rows are handed to the
-//! sink in row order whatever order a dump stores them in (a dump written out of order holds
-//! the decoded rows that arrive early, compact records, until their turn).
+//! decoded in chunks of a few rows per thread so that the decoded rows held at once stay
+//! small; each row becomes, right away, its strongest columns and the compact form its caller
+//! keeps: a candidate record (the wire format of [`fsm_core::wire::candidates`]) for a
+//! candidate file ([`candidate_record`]), a [`CandidateImage`] row for a scan in memory. Rows
+//! are handed to the sink in row order whatever order a dump stores them in (a dump written
+//! out of order holds the decoded rows that arrive early, in that compact form, until their
+//! turn).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -21,6 +23,7 @@ use rayon::prelude::*;
 use crate::candidate_file::{
     self, CandidateWriter, HostCandidates, CANDIDATE_CAPACITY, CANDIDATE_FILE_NAME,
 };
+use crate::candidate_image::CandidateImage;
 use crate::capture::{BadRecord, BadRows, Capture, RowBatch, RowBatches};
 use crate::column_map::{ColumnMap, COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
 use crate::error::{Error, Result};
@@ -49,13 +52,14 @@ impl Default for DecodeOptions {
     }
 }
 
-/// One decoded row: its candidate record and its pixels' strongest columns.
+/// One decoded row: its candidates in the form the caller keeps (`T`: a candidate record, a
+/// [`CandidateImage`] row, nothing) and its pixels' strongest columns.
 #[derive(Clone, Debug)]
-pub struct DecodedRow {
+pub struct DecodedRow<T> {
     /// Camera row.
     pub row: u32,
-    /// The row's record in the candidate format (CRC included).
-    pub record: Vec<u8>,
+    /// The row's candidates, as the caller's `keep` made them.
+    pub kept: T,
     /// Strongest candidate column of each pixel, NaN where none.
     pub strongest: Vec<f32>,
     /// Pixels with at least one candidate.
@@ -136,17 +140,53 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::Usage(format!("cannot start {threads} decoding threads: {e}")))
 }
 
-/// Decodes every row of `capture`, handing the rows to `sink` in row order.
-pub fn decode_capture(
+/// What a caller keeps of a decoded row: `keep(row, pixels)` turns its pixels' candidate lists
+/// into a compact form (called on the decoding threads, so it runs in parallel).
+pub trait KeepRow: Sync {
+    /// The compact form.
+    type Kept: Send;
+    /// Row `row`'s pixels in the compact form.
+    fn keep(&self, row: u32, pixels: &[HostCandidates]) -> Result<Self::Kept>;
+}
+
+impl<T: Send, F: Fn(u32, &[HostCandidates]) -> Result<T> + Sync> KeepRow for F {
+    type Kept = T;
+    fn keep(&self, row: u32, pixels: &[HostCandidates]) -> Result<T> {
+        self(row, pixels)
+    }
+}
+
+/// Keeps a decoded row as its record in the candidate format (CRC included), for a candidate
+/// file with `header`.
+pub fn candidate_record(
+    header: CandidateHeader,
+) -> impl Fn(u32, &[HostCandidates]) -> Result<Vec<u8>> + Sync {
+    move |row, pixels| {
+        let mut record = Vec::new();
+        candidate_file::encode_row(&header, row, pixels, &mut record)
+            .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
+        Ok(record)
+    }
+}
+
+/// Keeps a decoded row as a one-row [`CandidateImage`], for a scan in memory.
+pub fn candidate_image_row(row: u32, pixels: &[HostCandidates]) -> Result<CandidateImage> {
+    Ok(CandidateImage::of_row(row as usize, pixels))
+}
+
+/// Decodes every row of `capture`, handing the rows to `sink` in row order, each in the form
+/// `keep` makes of it.
+pub fn decode_capture<K: KeepRow>(
     plan: impl Into<MethodPlan>,
     capture: &Capture,
     options: &DecodeOptions,
     progress: &Progress,
-    sink: impl FnMut(DecodedRow) -> Result<()> + Send,
+    keep: K,
+    sink: impl FnMut(DecodedRow<K::Kept>) -> Result<()> + Send,
 ) -> Result<DecodeSummary> {
     let threads = thread_pool(options.threads)?.current_num_threads();
     let mut batches = capture.batches(options.memory_budget_bytes, dump_batch_rows(threads))?;
-    decode_batches(plan, &mut batches, options, progress, sink)
+    decode_batches(plan, &mut batches, options, progress, keep, sink)
 }
 
 /// Rows of a dump read per batch: enough to keep every thread busy between two reads.
@@ -154,13 +194,15 @@ pub fn dump_batch_rows(threads: usize) -> u32 {
     (8 * threads.max(1)) as u32
 }
 
-/// Decodes every row `batches` delivers, handing the rows to `sink` in row order.
-pub fn decode_batches(
+/// Decodes every row `batches` delivers, handing the rows to `sink` in row order, each in the
+/// form `keep` makes of it.
+pub fn decode_batches<K: KeepRow>(
     plan: impl Into<MethodPlan>,
     batches: &mut RowBatches<'_>,
     options: &DecodeOptions,
     progress: &Progress,
-    mut sink: impl FnMut(DecodedRow) -> Result<()> + Send,
+    keep: K,
+    mut sink: impl FnMut(DecodedRow<K::Kept>) -> Result<()> + Send,
 ) -> Result<DecodeSummary> {
     let plan: MethodPlan = plan.into();
     let started = Instant::now();
@@ -171,14 +213,13 @@ pub fn decode_batches(
     let height = batches.height();
     let bit_depth = batches.bit_depth();
     let row_len = batches.row_len();
-    let header = candidate_header(plan, width, height);
     let mut summary = DecodeSummary {
         width,
         height,
         rows_per_batch: batches.rows_per_batch(),
         ..Default::default()
     };
-    let mut pending: BTreeMap<u32, DecodedRow> = BTreeMap::new();
+    let mut pending: BTreeMap<u32, DecodedRow<K::Kept>> = BTreeMap::new();
     // Rows given up (a bad record of a dump in row order stood where they belong): handed on
     // without data when their turn comes, instead of holding every later row until the end.
     let mut given_up: BTreeSet<u32> = BTreeSet::new();
@@ -186,7 +227,7 @@ pub fn decode_batches(
     let skip_bad_rows = batches.bad_rows() == BadRows::Skip;
     progress.start(height as u64, "decoding rows");
     // Decodes one batch, its rows in parallel.
-    let decode_batch = |batch: &RowBatch| -> Result<Vec<DecodedRow>> {
+    let decode_batch = |batch: &RowBatch| -> Result<Vec<DecodedRow<K::Kept>>> {
         batch
             .rows
             .par_iter()
@@ -199,14 +240,17 @@ pub fn decode_batches(
                     )
                 },
                 |(scratch, pixels), (&row, frames)| {
-                    decode_row(&decoder, &header, row, frames, bit_depth, scratch, pixels)
+                    decode_row(&decoder, &keep, row, frames, bit_depth, scratch, pixels)
                 },
             )
             .collect()
     };
     // Hands every decoded row now due to the sink; with `finish`, also the rows that never
     // came (as rows without data).
-    let mut deliver = |decoded: Vec<DecodedRow>, bad: &[BadRecord], finish: bool| -> Result<()> {
+    let mut deliver = |decoded: Vec<DecodedRow<K::Kept>>,
+                       bad: &[BadRecord],
+                       finish: bool|
+     -> Result<()> {
         progress.advance(decoded.len() as u64);
         for d in decoded {
             // A good record of a row a bad one had claimed: its data wins while there is time.
@@ -239,7 +283,7 @@ pub fn decode_batches(
                 None if given_up.remove(&next_row) || finish => {
                     progress.advance(1);
                     summary.rows_without_data.push(next_row);
-                    row_without_data(&header, next_row, width)?
+                    row_without_data(&keep, next_row, width)?
                 }
                 None => break,
             };
@@ -294,10 +338,10 @@ pub fn decode_batches(
 
 /// A row the capture held no valid samples for: no candidates, every pixel flagged
 /// [`PixelFlags::NO_DATA`].
-fn row_without_data(header: &CandidateHeader, row: u32, width: u32) -> Result<DecodedRow> {
+fn row_without_data<K: KeepRow>(keep: &K, row: u32, width: u32) -> Result<DecodedRow<K::Kept>> {
     let mut pixel = HostCandidates::new();
     pixel.flags.insert(PixelFlags::NO_DATA);
-    decoded_row(header, row, &vec![pixel; width as usize])
+    decoded_row(keep, row, &vec![pixel; width as usize])
 }
 
 /// The line decoder of a plan of any method: the core's FSM decoder (with its tables), or a
@@ -363,15 +407,15 @@ impl<'t> RowDecoder<'t> {
     }
 }
 
-fn decode_row(
+fn decode_row<K: KeepRow>(
     decoder: &RowDecoder<'_>,
-    header: &CandidateHeader,
+    keep: &K,
     row: u32,
     frames: &[u16],
     bit_depth: u8,
     scratch: &mut [f32],
     pixels: &mut [HostCandidates],
-) -> Result<DecodedRow> {
+) -> Result<DecodedRow<K::Kept>> {
     let input = Row {
         frames,
         width: pixels.len(),
@@ -381,21 +425,18 @@ fn decode_row(
     decoder
         .decode_row(&input, scratch, pixels)
         .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
-    decoded_row(header, row, pixels)
+    decoded_row(keep, row, pixels)
 }
 
-/// Row `row`'s candidate record, strongest columns and counts, from its pixels.
-fn decoded_row(
-    header: &CandidateHeader,
+/// Row `row`'s kept form, strongest columns and counts, from its pixels.
+fn decoded_row<K: KeepRow>(
+    keep: &K,
     row: u32,
     pixels: &[HostCandidates],
-) -> Result<DecodedRow> {
-    let mut record = Vec::new();
-    candidate_file::encode_row(header, row, pixels, &mut record)
-        .map_err(|e| Error::Usage(format!("row {row}: {e}")))?;
+) -> Result<DecodedRow<K::Kept>> {
     let mut decoded = DecodedRow {
         row,
-        record,
+        kept: keep.keep(row, pixels)?,
         strongest: Vec::with_capacity(pixels.len()),
         lit_pixels: 0,
         candidates: 0,
@@ -450,8 +491,9 @@ fn decode_into(
     let mut writer = CandidateWriter::new(std::io::BufWriter::with_capacity(1 << 20, file), header)
         .map_err(io)?;
     let mut map = ColumnMap::new(capture.width(), capture.height());
-    let summary = decode_capture(*plan, capture, options, progress, |row| {
-        writer.write_record(row.row, &row.record).map_err(io)?;
+    let keep = candidate_record(header);
+    let summary = decode_capture(*plan, capture, options, progress, keep, |row| {
+        writer.write_record(row.row, &row.kept).map_err(io)?;
         map.set_row_columns(row.row, &row.strongest);
         Ok(())
     })?;

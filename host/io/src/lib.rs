@@ -16,6 +16,7 @@
 //! | a scan's rows from a stack or a dump, in batches within a memory budget | [`capture`] |
 //! | all rows through the line decoder in parallel, in row order | [`decode`] |
 //! | candidate files (header + one record per row) | [`candidate_file`] |
+//! | a scan's candidates in memory: one flat list, an offset per pixel | [`candidate_image`] |
 //! | strongest-candidate column map: float TIFF and preview | [`column_map`] |
 //! | plots of one pixel's spectra and one row's c-domain map | [`inspect`] |
 //! | whole-or-nothing outputs (temporary name, rename) | [`outputs`] |
@@ -35,6 +36,7 @@
 #![warn(missing_docs)]
 
 pub mod candidate_file;
+pub mod candidate_image;
 pub mod capture;
 pub mod column_map;
 pub mod decode;

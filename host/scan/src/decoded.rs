@@ -1,30 +1,31 @@
 //! The decoded candidates of every pixel of a scan, whichever method made them: captures on
 //! disk (image stacks, dump files) through the host's parallel decoding pipeline, rows in
 //! memory (a simulated camera's) row-parallel through the same line decoder
-//! ([`fsm_io::decode::RowDecoder`]), for a plan of any method ([`MethodPlan`]). Triangulation
-//! and selection take it from here.
+//! ([`fsm_io::decode::RowDecoder`]), for a plan of any method ([`MethodPlan`]), or the
+//! candidate file a camera streamed or `fsm decode` wrote. Decoded rows go straight into the
+//! compact [`CandidateImage`], never through the candidate file's bytes. Triangulation and
+//! selection take it from here.
 
-use fsm_core::wire::candidates::decode_record;
+use std::path::Path;
+
 use fsm_core::{ColumnRange, Row};
-use fsm_io::candidate_file::HostCandidates;
+use fsm_io::candidate_file::{CandidateReader, HostCandidates};
+use fsm_io::candidate_image::CandidateImage;
 use fsm_io::capture::Capture;
-use fsm_io::decode::{candidate_header, decode_capture, DecodeOptions, DecodeSummary, RowDecoder};
+use fsm_io::decode::{
+    candidate_image_row, decode_capture, DecodeOptions, DecodeSummary, RowDecoder,
+};
 use fsm_io::plan_file::MethodPlan;
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 use rayon::prelude::*;
 
-/// Candidates of every pixel of `height` rows from `first_row` on, row-major.
+/// Candidates of every pixel of `height` rows from `first_row` on, row-major, held compactly
+/// ([`CandidateImage`]), with the scale a point's quality is measured in.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DecodedImage {
-    /// Pixels per row.
-    pub width: usize,
-    /// Camera row of `pixels[0]`.
-    pub first_row: usize,
-    /// Rows.
-    pub height: usize,
-    /// One candidate list per pixel.
-    pub pixels: Vec<HostCandidates>,
+    /// Every pixel's flags and candidates.
+    pub candidates: CandidateImage,
     /// The noise RMS of a light profile's column at a dark pixel, sensor DN
     /// ([`MethodPlan::dark_column_noise_dn`]): what a point's quality is measured in. `None`
     /// where the method has no such scale (DFT searches, phase shift).
@@ -33,7 +34,7 @@ pub struct DecodedImage {
 
 impl DecodedImage {
     /// Decodes a capture (image stack or dump file) of any method's plan with the host's
-    /// pipeline.
+    /// pipeline; each row goes straight from the decoder into the compact image.
     pub fn decode_capture(
         plan: impl Into<MethodPlan>,
         capture: &Capture,
@@ -41,14 +42,46 @@ impl DecodedImage {
         progress: &Progress,
     ) -> Result<(DecodedImage, DecodeSummary)> {
         let plan: MethodPlan = plan.into();
-        let (width, height) = (capture.width() as usize, capture.height() as usize);
-        let mut image = DecodedImage::empty(width, height);
-        image.column_noise_dn = plan.dark_column_noise_dn(capture.bit_depth());
-        let header = candidate_header(plan, capture.width(), capture.height());
-        let summary = decode_capture(plan, capture, options, progress, |row| {
-            image.take_row(&header, row)
-        })?;
+        let mut candidates = CandidateImage::new(capture.width() as usize, 0);
+        let summary = decode_capture(
+            plan,
+            capture,
+            options,
+            progress,
+            candidate_image_row,
+            |row| {
+                candidates.append(&row.kept);
+                Ok(())
+            },
+        )?;
+        let image = DecodedImage {
+            candidates,
+            column_noise_dn: plan.dark_column_noise_dn(capture.bit_depth()),
+        };
         Ok((image, summary))
+    }
+
+    /// Reads the candidate file `path` (`fsm decode`'s, or a camera's) of a capture decoded
+    /// with `plan`, from a sensor of `bit_depth` bits (the file does not record it; a point's
+    /// quality is measured in it). The file must name `plan` by its fingerprint.
+    pub fn read_candidates(plan: &MethodPlan, path: &Path, bit_depth: u8) -> Result<DecodedImage> {
+        let mut reader = CandidateReader::open(path).map_err(|e| Error::Usage(e.to_string()))?;
+        let named = reader.header().plan_fingerprint;
+        if named != plan.fingerprint() {
+            return Err(Error::Usage(format!(
+                "{}: the candidates were decoded with the plan of fingerprint {named:016x}, not \
+                 with this plan ({:016x}); decode the capture again with this plan, or scan \
+                 with the plan they were decoded with",
+                path.display(),
+                plan.fingerprint()
+            )));
+        }
+        let candidates =
+            CandidateImage::read_file(&mut reader).map_err(|e| Error::Usage(e.to_string()))?;
+        Ok(DecodedImage {
+            candidates,
+            column_noise_dn: plan.dark_column_noise_dn(bit_depth),
+        })
     }
 
     /// Decodes rows held in memory (a simulated camera's): `samples(y)` gives row `y` in the
@@ -64,12 +97,17 @@ impl DecodedImage {
     ) -> Result<DecodedImage> {
         let mut tables = Vec::new();
         let decoder = RowDecoder::new(plan, &mut tables)?;
-        let decoded: Vec<Vec<HostCandidates>> = rows
+        let decoded: Vec<CandidateImage> = rows
             .clone()
             .into_par_iter()
             .map_init(
-                || vec![0.0f32; decoder.scratch_len()],
-                |scratch, y| {
+                || {
+                    (
+                        vec![0.0f32; decoder.scratch_len()],
+                        vec![HostCandidates::new(); width],
+                    )
+                },
+                |(scratch, out), y| {
                     let frames = samples(y)?;
                     let limits = limits.map(|l| l(y));
                     let row = Row {
@@ -78,47 +116,20 @@ impl DecodedImage {
                         bit_depth,
                         column_limits: limits.as_deref(),
                     };
-                    let mut out = vec![HostCandidates::new(); width];
                     decoder
-                        .decode_row(&row, scratch, &mut out)
+                        .decode_row(&row, scratch, out)
                         .map_err(|e| Error::Usage(format!("row {y}: {e}")))?;
-                    Ok(out)
+                    Ok(CandidateImage::of_row(y, out))
                 },
             )
             .collect::<Result<_>>()?;
+        let mut candidates = CandidateImage::new(width, rows.start);
+        for row in &decoded {
+            candidates.append(row);
+        }
         Ok(DecodedImage {
-            width,
-            first_row: rows.start,
-            height: rows.len(),
-            pixels: decoded.into_iter().flatten().collect(),
+            candidates,
             column_noise_dn: plan.dark_column_noise_dn(bit_depth),
         })
-    }
-
-    fn empty(width: usize, height: usize) -> Self {
-        DecodedImage {
-            width,
-            first_row: 0,
-            height,
-            pixels: vec![HostCandidates::new(); width * height],
-            column_noise_dn: None,
-        }
-    }
-
-    /// Stores a decoded row from its candidate record (the bytes the candidate file holds).
-    fn take_row(
-        &mut self,
-        header: &fsm_core::wire::candidates::CandidateHeader,
-        row: fsm_io::decode::DecodedRow,
-    ) -> Result<()> {
-        let record = decode_record(header, &row.record)
-            .map_err(|e| Error::Usage(format!("decoded row {}: {e}", row.row)))?;
-        let y = record.row as usize;
-        record
-            .read_into(
-                header,
-                &mut self.pixels[y * self.width..(y + 1) * self.width],
-            )
-            .map_err(|e| Error::Usage(format!("decoded row {y}: {e}")))
     }
 }

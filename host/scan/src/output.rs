@@ -83,14 +83,14 @@ impl ScanSummary {
         calibration: &fsm_geometry::Calibration,
         seconds: StageSeconds,
     ) -> ScanSummary {
-        let pixels = &decoded.pixels;
-        let flagged = |flag| pixels.iter().filter(|p| p.flags.contains(flag)).count() as u64;
+        let pixels = &decoded.candidates;
+        let flagged = |flag| pixels.count_flagged(flag) as u64;
         ScanSummary {
             method: method.to_string(),
             plan_fingerprint: format!("{plan_fingerprint:016x}"),
             width: surface.width,
             height: surface.height,
-            candidates: pixels.iter().map(|p| p.candidates.len() as u64).sum(),
+            candidates: pixels.candidate_count() as u64,
             aliased_pixels: flagged(fsm_core::PixelFlags::ALIASED),
             unresolved_pixels: flagged(fsm_core::PixelFlags::UNRESOLVED),
             candidates_in_volume: surface.candidates,

@@ -75,6 +75,33 @@ impl CandidateField {
         field
     }
 
+    /// A field of `width × height` pixels from each pixel's label count (row-major) and all
+    /// labels in that order.
+    ///
+    /// # Panics
+    /// If there is not one count per pixel or the counts do not add up to the labels.
+    pub fn from_counts(width: usize, height: usize, counts: &[u32], labels: Vec<Label>) -> Self {
+        assert_eq!(counts.len(), width * height, "one label count per pixel");
+        let mut starts = Vec::with_capacity(counts.len() + 1);
+        let mut end = 0u32;
+        starts.push(end);
+        for &c in counts {
+            end += c;
+            starts.push(end);
+        }
+        assert_eq!(
+            end as usize,
+            labels.len(),
+            "the counts add up to the labels"
+        );
+        CandidateField {
+            width,
+            height,
+            starts,
+            labels,
+        }
+    }
+
     /// Image width.
     pub fn width(&self) -> usize {
         self.width

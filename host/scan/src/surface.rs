@@ -237,10 +237,7 @@ impl Surface {
         let started = std::time::Instant::now();
         let (field, before) = crate::triangulate::candidate_field(
             calibration,
-            decoded.first_row,
-            decoded.width,
-            decoded.height,
-            &decoded.pixels,
+            &decoded.candidates,
             params.drop_aliased,
         );
         let triangulated = std::time::Instant::now();

@@ -370,14 +370,14 @@ fn glossy_figures(
     let (truth_mm, lit) = truth_points(&truth);
     let all_points = point_errors(&surface.point_mm, &truth_mm, &lit, WRONG_BEYOND_MM);
     let (mut pixels, mut among, mut points, mut right) = (0usize, 0usize, 0usize, 0usize);
-    for (i, p) in decoded.pixels.iter().enumerate() {
+    for (i, (_, candidates)) in decoded.candidates.pixels().enumerate() {
         let t = &truth[i];
         if t.class != SurfaceClass::Glossy || t.edge || !t.direct_column.is_finite() {
             continue;
         }
         pixels += 1;
         let near = |c: f32| (c as f64 - t.direct_column).abs() <= 0.5;
-        among += p.candidates.iter().any(|c| near(c.column)) as usize;
+        among += candidates.iter().any(|c| near(c.column)) as usize;
         if let Some(c) = surface.column[i] {
             points += 1;
             right += near(c) as usize;

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use fsm_geometry::Calibration;
+use fsm_io::decode::DecodeSummary;
 use fsm_io::outputs::StagedDir;
+use fsm_io::plan_file::MethodPlan;
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 use fsm_scan::decoded::DecodedImage;
@@ -16,6 +18,10 @@ use fsm_scan::{Paths, SelectionParams, Surface};
 use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 
 /// Scan a surface: decode the capture, triangulate every candidate, select the direct one.
+///
+/// The capture is an image stack (--images) or a row dump (--dump), decoded here; or the
+/// candidates are already decoded (--candidates: `fsm decode`'s candidates.fsmc, or the file
+/// a camera streamed with `fsm camera scan`), and the scan starts from them.
 ///
 /// Every candidate column of a pixel (direct light and reflections) is triangulated with the
 /// calibration; candidates outside its measurement volume are dropped; the direct candidate
@@ -36,6 +42,8 @@ use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 /// Examples:
 ///   fsm scan --plan plan.toml --calibration cal.toml --images captures/ --out scan/
 ///   fsm scan --plan plan.toml --calibration cal.toml --dump scan.dump --paths 8 --out scan/
+///   fsm scan --plan plan.toml --calibration cal.toml --candidates decoded/candidates.fsmc \
+///       --bit-depth 12 --out scan/
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -48,6 +56,11 @@ pub struct Args {
     calibration: PathBuf,
     #[command(flatten)]
     source: CaptureSource,
+    /// Candidate file of the capture (`fsm decode`'s candidates.fsmc, or a camera's), decoded
+    /// with this plan: the scan starts from its candidates. FSM plans need --bit-depth with it
+    /// (the file does not record the sensor's, and a point's quality is measured in it).
+    #[arg(long, value_name = "FILE", group = "CaptureSource")]
+    candidates: Option<PathBuf>,
     #[command(flatten)]
     bit_depth: BitDepth,
     #[command(flatten)]
@@ -136,6 +149,100 @@ pub fn load_calibration(path: &std::path::Path) -> Result<Calibration> {
     Calibration::read(path).map_err(|e| Error::Usage(e.to_string()))
 }
 
+/// The scan's candidates and where they came from.
+struct Decoded {
+    image: DecodedImage,
+    /// What the candidates came from, for messages.
+    source: String,
+    /// The decode's summary, when this command decoded.
+    summary: Option<DecodeSummary>,
+    seconds: f64,
+}
+
+impl Args {
+    /// Decodes the capture, or reads the candidate file; checks the size against the camera's.
+    fn decoded(&self, plan: &MethodPlan, calibration: &Calibration) -> Result<Decoded> {
+        let started = Instant::now();
+        let decoded = match &self.candidates {
+            Some(path) => {
+                let depth = self.bit_depth.bit_depth;
+                // Any depth tells whether the method measures quality in the sensor's noise.
+                let bit_depth = match depth {
+                    Some(bits) => bits,
+                    None if plan.dark_column_noise_dn(16).is_none() => 16,
+                    None => {
+                        return Err(Error::Usage(format!(
+                            "--candidates {}: a candidate file does not record the sensor's bit \
+                             depth, which a point's quality is measured in; give the capture's \
+                             with --bit-depth (e.g. 12)",
+                            path.display()
+                        )))
+                    }
+                };
+                Decoded {
+                    image: DecodedImage::read_candidates(plan, path, bit_depth)?,
+                    source: format!("candidate file {}", path.display()),
+                    summary: None,
+                    seconds: 0.0,
+                }
+            }
+            None => {
+                let capture = self
+                    .source
+                    .open(*plan, &self.bit_depth, self.bad_rows.policy())?;
+                check_camera_size(
+                    &self.calibration,
+                    calibration,
+                    &capture.describe(),
+                    (capture.width(), capture.height()),
+                )?;
+                let (image, summary) = DecodedImage::decode_capture(
+                    *plan,
+                    &capture,
+                    &self.decode.options(),
+                    &Progress::stderr(),
+                )?;
+                Decoded {
+                    image,
+                    source: capture.describe(),
+                    summary: Some(summary),
+                    seconds: 0.0,
+                }
+            }
+        };
+        let candidates = &decoded.image.candidates;
+        check_camera_size(
+            &self.calibration,
+            calibration,
+            &decoded.source,
+            (candidates.width() as u32, candidates.height() as u32),
+        )?;
+        Ok(Decoded {
+            seconds: started.elapsed().as_secs_f64(),
+            ..decoded
+        })
+    }
+}
+
+/// Refuses a capture whose size is not the calibrated camera's.
+fn check_camera_size(
+    calibration_path: &std::path::Path,
+    calibration: &Calibration,
+    source: &str,
+    (width, height): (u32, u32),
+) -> Result<()> {
+    let camera = &calibration.camera;
+    if (camera.width_px(), camera.height_px()) == (width, height) {
+        return Ok(());
+    }
+    Err(Error::Usage(format!(
+        "{}: the calibrated camera is {}x{} pixels, the capture {source} is {width}x{height}",
+        calibration_path.display(),
+        camera.width_px(),
+        camera.height_px(),
+    )))
+}
+
 pub fn run(args: Args) -> Result<()> {
     let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
     let calibration = load_calibration(&args.calibration)?;
@@ -148,58 +255,38 @@ pub fn run(args: Args) -> Result<()> {
             args.plan.display(),
         )));
     }
-    let capture = args
-        .source
-        .open(plan, &args.bit_depth, args.bad_rows.policy())?;
     let camera = &calibration.camera;
-    if (camera.width_px(), camera.height_px()) != (capture.width(), capture.height()) {
-        return Err(Error::Usage(format!(
-            "{}: the calibrated camera is {}x{} pixels, the capture {} is {}x{}",
-            args.calibration.display(),
-            camera.width_px(),
-            camera.height_px(),
-            capture.describe(),
-            capture.width(),
-            capture.height()
-        )));
-    }
     // Read before any work: a bad truth folder fails fast.
     let truth = match &args.truth {
         Some(dir) => Some((
             dir,
-            fsm_sim::folder::read_truth(dir, capture.width(), capture.height())?,
+            fsm_sim::folder::read_truth(dir, camera.width_px(), camera.height_px())?,
         )),
         None => None,
     };
     let staged = StagedDir::create(&args.out, args.force)?;
-    let options = args.decode.options();
-    let started = Instant::now();
-    let (decoded, decode_summary) =
-        DecodedImage::decode_capture(plan, &capture, &options, &Progress::stderr())?;
-    let decode_seconds = started.elapsed().as_secs_f64();
+    let decoded = args.decoded(&plan, &calibration)?;
     let params = args.selection.params(&calibration);
-    let (surface, times) = Surface::reconstruct(&decoded, &calibration, &params);
+    let (surface, times) = Surface::reconstruct(&decoded.image, &calibration, &params);
     let method = plan.name();
     let seconds = StageSeconds {
-        decode: decode_seconds,
+        decode: decoded.seconds,
         triangulate: times.triangulate_seconds,
         select: times.select_seconds,
     };
     let mut summary = ScanSummary::new(
         method,
         plan.fingerprint(),
-        &decoded,
+        &decoded.image,
         &surface,
         &params,
         &calibration,
         seconds,
     );
-    summary.rows_without_data = decode_summary.rows_without_data.clone();
-    summary.bad_records = decode_summary
-        .bad_records
-        .iter()
-        .map(|b| b.error.clone())
-        .collect();
+    summary.rows_without_data = decoded.image.candidates.rows_without_data();
+    if let Some(d) = &decoded.summary {
+        summary.bad_records = d.bad_records.iter().map(|b| b.error.clone()).collect();
+    }
     summary.truth = truth.map(|(dir, (depth, lit))| {
         let errors = point_errors_from_depth(&surface.point_mm, &depth, &lit, 1.0);
         TruthSummary {
@@ -212,20 +299,23 @@ pub fn run(args: Args) -> Result<()> {
     write_scan(staged.path(), &surface, &summary)?;
     let out = staged.commit()?;
     eprintln!(
-        "scanned {} ({}x{}): {} points of {} pixels from {} candidates ({} in the volume); decode {:.2} s, \
+        "scanned {} ({}x{}): {} points of {} pixels from {} candidates ({} in the volume); {} {:.2} s, \
          triangulation {:.2} s, selection {:.2} s -> {}",
-        capture.describe(),
+        decoded.source,
         surface.width,
         surface.height,
         summary.points,
         surface.width * surface.height,
         summary.candidates,
         summary.candidates_in_volume,
-        decode_seconds,
+        if decoded.summary.is_some() { "decode" } else { "reading" },
+        decoded.seconds,
         times.triangulate_seconds,
         times.select_seconds,
         out.display()
     );
-    report_bad_rows(&decode_summary);
+    if let Some(d) = &decoded.summary {
+        report_bad_rows(d);
+    }
     Ok(())
 }

@@ -6,7 +6,7 @@ use std::fs;
 use std::path::Path;
 
 use crate::report_pages;
-use crate::run::{fsm, s, simulate};
+use crate::run::{fails, fsm, ok, ok_stderr, s, simulate};
 use ply_rs::parser::Parser;
 use ply_rs::ply::{DefaultElement, Property};
 
@@ -168,6 +168,95 @@ fn scan_refuses_a_calibration_of_another_projector_or_camera_and_leaves_nothing(
         stderr.contains("calibration.toml") && stderr.contains("32x24") && stderr.contains("48x36"),
         "{stderr}"
     );
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_candidate_file_scans_to_the_surface_of_its_capture_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    simulate("sphere_mirror", "paper-efsm-2", "64x48", &sim);
+    let (plan, calibration) = (sim.join("plan.toml"), sim.join("calibration.toml"));
+    let decoded = dir.path().join("decoded");
+    ok(&[
+        "decode",
+        "--plan",
+        s(&plan),
+        "--dump",
+        s(&sim.join("scan.dump")),
+        "--out",
+        s(&decoded),
+    ]);
+    let candidates = decoded.join("candidates.fsmc");
+    let scan = |source: &[&str], out: &Path| {
+        let mut args = vec!["scan", "--plan", s(&plan), "--calibration", s(&calibration)];
+        args.extend_from_slice(source);
+        args.extend_from_slice(&["--out", s(out)]);
+        ok_stderr(&args)
+    };
+    let (from_dump, from_file) = (dir.path().join("a"), dir.path().join("b"));
+    scan(&["--dump", s(&sim.join("scan.dump"))], &from_dump);
+    let said = scan(
+        &["--candidates", s(&candidates), "--bit-depth", "12"],
+        &from_file,
+    );
+    assert!(said.contains("candidate file"), "{said}");
+    for name in ["depth.tiff", "column.tiff", "quality.tiff", "points.ply"] {
+        let (a, b) = (
+            fs::read(from_dump.join(name)).unwrap(),
+            fs::read(from_file.join(name)).unwrap(),
+        );
+        assert!(a == b, "{name} differs");
+    }
+    let summary = |dir: &Path| -> serde_json::Value {
+        serde_json::from_slice(&fs::read(dir.join("summary.json")).unwrap()).unwrap()
+    };
+    let (a, b) = (summary(&from_dump), summary(&from_file));
+    assert!(a["points"].as_u64().unwrap() > 64 * 48 / 3, "{a}");
+    for field in ["points", "candidates", "candidates_in_volume", "no_point"] {
+        assert_eq!(a[field], b[field], "{field}");
+    }
+
+    // The file does not record the sensor's bit depth, which the quality needs.
+    let base = [
+        "scan",
+        "--plan",
+        s(&plan),
+        "--calibration",
+        s(&calibration),
+        "--candidates",
+        s(&candidates),
+    ];
+    let out = dir.path().join("c");
+    let said = fails(&[&base[..], &["--out", s(&out)]].concat());
+    assert!(said.contains("--bit-depth"), "{said}");
+    // Candidates decoded with another plan are refused by its fingerprint.
+    let other = dir.path().join("other.toml");
+    let text = fs::read_to_string(&plan).unwrap();
+    assert!(text.contains("\nnoise_factor = 5.0"), "{text}");
+    let text = text.replace("\nnoise_factor = 5.0", "\nnoise_factor = 6.0");
+    fs::write(&other, text).unwrap();
+    let mut args = base.to_vec();
+    args[2] = s(&other);
+    let said = fails(&[&args[..], &["--bit-depth", "12", "--out", s(&out)]].concat());
+    assert!(
+        said.contains("candidates.fsmc") && said.contains("fingerprint"),
+        "{said}"
+    );
+    // A calibration of another camera size is refused with both sizes.
+    let small = dir.path().join("small");
+    simulate("plane", "paper-efsm-2", "32x24", &small);
+    let small_calibration = small.join("calibration.toml");
+    let mut args = base.to_vec();
+    args[4] = s(&small_calibration);
+    let said = fails(&[&args[..], &["--bit-depth", "12", "--out", s(&out)]].concat());
+    assert!(said.contains("32x24") && said.contains("64x48"), "{said}");
+    // One source at a time.
+    let dump = sim.join("scan.dump");
+    let out_arg = ["--out", s(&out), "--dump", s(&dump)];
+    let assert = fsm().args(base).args(out_arg).assert().failure();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("cannot be used with"), "{stderr}");
     assert!(!out.exists());
 }
 
