@@ -379,7 +379,7 @@ fn the_demo_reports_the_papers_comparison() {
     let pictures = page.pictures();
     assert_eq!(pictures.len(), 1 + 4 * methods.len(), "{pictures:?}");
     for picture in pictures {
-        assert!(out.join(&picture.src).is_file(), "{picture:?}");
+        assert!(out.join(picture.file()).is_file(), "{picture:?}");
     }
 }
 

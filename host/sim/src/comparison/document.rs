@@ -158,19 +158,36 @@ th,td{border:1px solid #bbb;padding:.25em .5em;text-align:right}th{background:#e
 th:first-child,td:first-child{text-align:left}figure{margin:0;text-align:center}img{max-width:100%}\
 figcaption{font-size:.8em}code{background:#f4f4f4}";
 
-/// `![alt](path)`.
+/// `![alt](path)`, the path as a URL.
 fn markdown_picture(picture: &Picture) -> String {
-    format!("![{}]({})", picture.alt, picture.path)
+    format!("![{}]({})", picture.alt, url_path(&picture.path))
 }
 
 /// The picture, a link to itself at full size, captioned with its path.
 fn html_figure(picture: &Picture) -> String {
-    let path = escape(&picture.path);
+    let url = escape(&url_path(&picture.path));
     format!(
-        "<figure><a href=\"{path}\"><img src=\"{path}\" alt=\"{}\" /></a>\
-         <figcaption><code>{path}</code></figcaption></figure>",
-        escape(&picture.alt)
+        "<figure><a href=\"{url}\"><img src=\"{url}\" alt=\"{}\" /></a>\
+         <figcaption><code>{}</code></figcaption></figure>",
+        escape(&picture.alt),
+        escape(&picture.path)
     )
+}
+
+/// A relative `/`-separated file path as a URL path: every byte but RFC 3986's unreserved
+/// characters and `/` percent-encoded (UTF-8), so that a method or folder name with a space,
+/// `#`, `%`, `(` or markup still links to its file, in markdown and HTML alike.
+fn url_path(path: &str) -> String {
+    let mut out = String::with_capacity(path.len());
+    for b in path.bytes() {
+        match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'.' | b'_' | b'~' | b'/' => {
+                out.push(b as char)
+            }
+            _ => out.push_str(&format!("%{b:02X}")),
+        }
+    }
+    out
 }
 
 /// Prose with its markdown code spans (between backticks) as `<code>`, the rest escaped.
@@ -208,6 +225,22 @@ mod tests {
     fn escapes_the_four_markup_characters() {
         assert_eq!(escape(r#"a<&>"b'"#), "a&lt;&amp;&gt;&quot;b'");
         assert_eq!(prose("x & `<y>` z"), "x &amp; <code>&lt;y&gt;</code> z");
+    }
+
+    #[test]
+    fn picture_paths_become_urls() {
+        assert_eq!(url_path("bfsm/depth.png"), "bfsm/depth.png");
+        assert_eq!(
+            url_path("efsm x2/a#b%(c)é.png"),
+            "efsm%20x2/a%23b%25%28c%29%C3%A9.png"
+        );
+        let p = Picture {
+            path: "my scan/depth.png".into(),
+            alt: "a & b".into(),
+        };
+        assert_eq!(markdown_picture(&p), "![a & b](my%20scan/depth.png)");
+        assert!(html_figure(&p).contains("href=\"my%20scan/depth.png\""));
+        assert!(html_figure(&p).contains("<code>my scan/depth.png</code>"));
     }
 
     #[test]

@@ -108,10 +108,13 @@ fn the_html_report_says_what_the_markdown_report_says() {
             alt: INTERREFLECTION.into()
         }
     );
-    assert!(pictures.contains(&Picture {
-        src: r#"a<&>"b/plane_mirror/depth.png"#.into(),
+    // The method's name is markup: percent-encoded in the link, the same file decoded.
+    let depth = Picture {
+        src: "a%3C%26%3E%22b/plane_mirror/depth.png".into(),
         alt: format!("{MARKUP}: depth with the mirror"),
-    }));
+    };
+    assert!(pictures.contains(&depth), "{pictures:?}");
+    assert_eq!(depth.file(), r#"a<&>"b/plane_mirror/depth.png"#);
 }
 
 #[test]
@@ -120,7 +123,7 @@ fn markup_in_a_name_is_escaped() {
     assert!(!page.contains(MARKUP), "{page}");
     assert!(page.contains("<td>A&lt;&amp;&gt;&quot;B</td>"), "{page}");
     assert!(
-        page.contains(r#"src="a&lt;&amp;&gt;&quot;b/column_error.png""#),
+        page.contains(r#"src="a%3C%26%3E%22b/column_error.png""#),
         "{page}"
     );
     // Prose: `&` escaped, code spans as <code>.

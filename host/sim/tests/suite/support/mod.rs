@@ -53,6 +53,32 @@ pub struct Picture {
     pub alt: String,
 }
 
+impl Picture {
+    /// The file `src` names, relative to the report: its percent-encoded bytes decoded.
+    pub fn file(&self) -> String {
+        let bytes = self.src.as_bytes();
+        let mut out = Vec::with_capacity(bytes.len());
+        let mut i = 0;
+        while i < bytes.len() {
+            let hex = bytes
+                .get(i + 1..i + 3)
+                .and_then(|h| std::str::from_utf8(h).ok())
+                .and_then(|h| u8::from_str_radix(h, 16).ok());
+            match (bytes[i], hex) {
+                (b'%', Some(byte)) => {
+                    out.push(byte);
+                    i += 3;
+                }
+                (b, _) => {
+                    out.push(b);
+                    i += 1;
+                }
+            }
+        }
+        String::from_utf8(out).expect("a UTF-8 path")
+    }
+}
+
 impl Outline {
     /// Every picture, on its own or in a table, in order.
     pub fn pictures(&self) -> Vec<Picture> {
