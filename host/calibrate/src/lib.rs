@@ -12,6 +12,7 @@ pub mod pose_folder;
 pub mod projector;
 pub mod refine;
 pub mod report;
+pub mod response;
 pub mod zhang;
 
 pub use calibrate::{

@@ -116,3 +116,67 @@ pub fn load_pose(
         columns,
     })
 }
+
+/// Every pose of a calibration: the board's corners and the decoded columns per pose, and the
+/// white frames (for the residual pictures), all of one image size.
+pub struct ObservedPoses {
+    /// Per pose, in the order given.
+    pub observations: Vec<crate::PoseObservation>,
+    /// Each pose's white − dark image, row-major.
+    pub whites: Vec<Vec<f32>>,
+    /// Image width, px.
+    pub width: u32,
+    /// Image height, px.
+    pub height: u32,
+}
+
+/// Reads every pose folder of `dirs` ([`load_pose`]) and finds `board`'s corners in its white
+/// frame. Refuses folders of another image size than the first's, and folders where the
+/// corners are not found, naming the folder. `seen(dir, corners, decoded_share)` is told about
+/// each pose.
+pub fn observe_poses(
+    dirs: &[std::path::PathBuf],
+    plan: &ScanPlan,
+    bit_depth: Option<u8>,
+    options: &DecodeOptions,
+    board: &crate::board::Checkerboard,
+    mut seen: impl FnMut(&Path, usize, f64),
+) -> Result<ObservedPoses> {
+    let mut observed = ObservedPoses {
+        observations: Vec::with_capacity(dirs.len()),
+        whites: Vec::with_capacity(dirs.len()),
+        width: 0,
+        height: 0,
+    };
+    for (i, dir) in dirs.iter().enumerate() {
+        let pose = load_pose(dir, plan, bit_depth, options)?;
+        if i == 0 {
+            (observed.width, observed.height) = (pose.width, pose.height);
+        } else if (pose.width, pose.height) != (observed.width, observed.height) {
+            return Err(Error::Usage(format!(
+                "{}: images are {}x{}, the first pose's are {}x{}",
+                dir.display(),
+                pose.width,
+                pose.height,
+                observed.width,
+                observed.height
+            )));
+        }
+        let (w, h) = (pose.width as usize, pose.height as usize);
+        let corners = crate::corners::detect(&pose.white, w, h, board)
+            .map_err(|e| Error::Usage(format!("{}: corners: {e}", dir.display())))?;
+        let lit = pose.columns.iter().filter(|c| c.is_finite()).count();
+        seen(dir, corners.len(), lit as f64 / (w * h).max(1) as f64);
+        observed.observations.push(crate::PoseObservation {
+            label: dir.display().to_string(),
+            corners_px: corners,
+            columns: crate::ColumnMap {
+                width: w,
+                height: h,
+                columns: pose.columns,
+            },
+        });
+        observed.whites.push(pose.white);
+    }
+    Ok(observed)
+}

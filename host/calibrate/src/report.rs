@@ -111,3 +111,24 @@ pub fn residual_picture(pose: &PoseReport, white: &[f32], w: usize, h: usize) ->
     }
     rgb
 }
+
+/// Writes one residual picture per pose ([`residual_picture`]) into `dir` (created if
+/// missing): `pose00.png`, `pose01.png`, …, each whole or not at all.
+pub fn write_residual_pictures(
+    dir: &std::path::Path,
+    report: &CalibrationReport,
+    whites: &[Vec<f32>],
+    (w, h): (u32, u32),
+) -> fsm_io::Result<()> {
+    use fsm_io::Error;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    for (i, (pose, white)) in report.poses.iter().zip(whites).enumerate() {
+        let path = dir.join(format!("pose{i:02}.png"));
+        let rgb = residual_picture(pose, white, w as usize, h as usize);
+        let mut bytes = Vec::new();
+        fsm_io::image_files::write_png_rgb8(&mut bytes, w, h, &rgb)
+            .map_err(|e| Error::Usage(format!("{}: {}", path.display(), e.0)))?;
+        fsm_io::outputs::write_file(&path, &bytes)?;
+    }
+    Ok(())
+}

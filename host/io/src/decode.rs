@@ -121,6 +121,55 @@ impl DecodeSummary {
     pub fn megapixels_per_second(&self) -> f64 {
         self.pixels() as f64 / self.seconds.max(f64::MIN_POSITIVE) / 1e6
     }
+
+    /// The counts in words, as `fsm decode` prints them: share of pixels with light,
+    /// candidates per lit pixel, and the pixels flagged.
+    pub fn counts(&self) -> String {
+        format!(
+            "{:.1}% of pixels have candidates, {:.2} per lit pixel; {} saturated, {} with more \
+             than the file's capacity, {} aliased (EFSM: two lights unresolved modulo the block \
+             width), {} unresolved (two touching lights not split)",
+            100.0 * self.lit_pixels as f64 / self.pixels().max(1) as f64,
+            self.candidates as f64 / self.lit_pixels.max(1) as f64,
+            self.saturated_pixels,
+            self.truncated_pixels,
+            self.aliased_pixels,
+            self.unresolved_pixels
+        )
+    }
+
+    /// What a decode with [`BadRows::Skip`] skipped, one line per bad record after the
+    /// count and the rows (`3, 7-9, 12`); `None` when nothing was skipped.
+    pub fn skipped(&self) -> Option<String> {
+        if self.rows_without_data.is_empty() && self.bad_records.is_empty() {
+            return None;
+        }
+        let rows = &self.rows_without_data;
+        let mut runs: Vec<String> = Vec::new();
+        let mut i = 0;
+        while i < rows.len() {
+            let mut j = i;
+            while j + 1 < rows.len() && rows[j + 1] == rows[j] + 1 {
+                j += 1;
+            }
+            runs.push(if j == i {
+                rows[i].to_string()
+            } else {
+                format!("{}-{}", rows[i], rows[j])
+            });
+            i = j + 1;
+        }
+        let mut text = format!(
+            "skipped {} bad record(s); {} row(s) without data, no point: {}",
+            self.bad_records.len(),
+            rows.len(),
+            runs.join(", ")
+        );
+        for bad in &self.bad_records {
+            text.push_str(&format!("\n  {}", bad.error));
+        }
+        Some(text)
+    }
 }
 
 /// The candidate-file header of a scan decoded by the host.

@@ -96,6 +96,62 @@ impl Preset {
     }
 }
 
+/// The methods `fsm plan --method` makes plans of, for a projector of a given width.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodKind {
+    /// Basic FSM: one fringe per projector column.
+    Bfsm,
+    /// Extended FSM: fringes of one block width, blocks told apart by masks.
+    Efsm,
+    /// Phase shift (6 offsets, period 12 columns) with Gray codes.
+    PhaseShift,
+    /// Micro Phase Shifting (Gupta & Nayar): 15 periods over 14-18 columns, 17 patterns.
+    MicroPhaseShift,
+    /// Code Ensemble (Gupta et al.): four 10-bit binary codes with their inverses, 80 patterns.
+    CodeEnsemble,
+    /// Line scanning: one column lit per pattern.
+    LineScan,
+}
+
+impl MethodKind {
+    /// Every method, with its command-line name.
+    pub const ALL: [(MethodKind, &'static str); 6] = [
+        (MethodKind::Bfsm, "bfsm"),
+        (MethodKind::Efsm, "efsm"),
+        (MethodKind::PhaseShift, "phase-shift"),
+        (MethodKind::MicroPhaseShift, "micro-phase-shift"),
+        (MethodKind::CodeEnsemble, "code-ensemble"),
+        (MethodKind::LineScan, "line-scan"),
+    ];
+
+    /// The method called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().find(|(_, n)| *n == name).map(|(m, _)| *m)
+    }
+
+    /// The method's plan for a projector of `columns` columns, every dependent field derived
+    /// from the width; `block_width` and `groups` are EFSM's.
+    pub fn plan(self, columns: u16, block_width: u16, groups: GroupCount) -> MethodPlan {
+        match self {
+            MethodKind::Bfsm => MethodPlan::Fsm(ScanPlan::bfsm(columns)),
+            MethodKind::Efsm => MethodPlan::Fsm(ScanPlan::efsm(columns, block_width, groups)),
+            MethodKind::PhaseShift => {
+                MethodPlan::PhaseShift(PhaseShiftPlan::for_projector(columns))
+            }
+            MethodKind::MicroPhaseShift => {
+                MethodPlan::MicroPhaseShift(MicroPhaseShiftPlan::spread(columns, 16.0, 4.0, 15))
+            }
+            MethodKind::CodeEnsemble => {
+                MethodPlan::CodeEnsemble(CodeEnsemblePlan::for_projector(columns))
+            }
+            MethodKind::LineScan => MethodPlan::LineScan(LineScanPlan {
+                projector_columns: columns,
+                ..LineScanPlan::paper()
+            }),
+        }
+    }
+}
+
 /// A plan of any method the toolkit knows: FSM's, or one of the baselines the paper compares
 /// it with (`fsm_core::baseline`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -227,6 +283,132 @@ impl MethodPlan {
                 p.sequence_len()
             ),
         }
+    }
+
+    /// What the plan is and what it resolves to, one `  field:  value` line each (`fsm plan`
+    /// prints it): method, projector, fringes or codes, frames and both fingerprints.
+    pub fn description(&self) -> String {
+        let mut lines: Vec<String> = Vec::new();
+        let mut line = |field: &str, value: String| lines.push(format!("  {field:<14} {value}"));
+        let compared = "(a method FSM is compared with)";
+        match self {
+            MethodPlan::Fsm(plan) => {
+                line(
+                    "method:",
+                    match plan.method {
+                        fsm_core::Method::Bfsm => "BFSM".to_owned(),
+                        fsm_core::Method::Efsm(b) => format!(
+                            "EFSM, block width {} columns, {} group(s), border guard {} columns",
+                            b.block_width,
+                            plan.group_count(),
+                            b.border_guard
+                        ),
+                    },
+                );
+                line("projector:", format!("{} columns", plan.projector_columns));
+                let band = &plan.band;
+                line(
+                    "fringes:",
+                    format!(
+                        "{} per group, f = {}/{} … {}/{} cycles per column",
+                        band.count,
+                        band.first_harmonic,
+                        band.period_columns,
+                        band.first_harmonic + band.count as u32 - 1,
+                        band.period_columns
+                    ),
+                );
+                line(
+                    "resolution:",
+                    format!(
+                        "{:.3} columns (two columns closer than {:.3} are not separable)",
+                        plan.column_resolution(),
+                        2.0 * plan.column_resolution()
+                    ),
+                );
+                line("DFT size N:", plan.transform_size.to_string());
+            }
+            MethodPlan::PhaseShift(p) => {
+                line("method:", format!("phase shift + Gray code {compared}"));
+                line("projector:", format!("{} columns", p.projector_columns));
+                line(
+                    "fringes:",
+                    format!(
+                        "{} offsets of period {} columns; {} Gray-code bits",
+                        p.steps, p.period_columns, p.bits
+                    ),
+                );
+            }
+            MethodPlan::MicroPhaseShift(p) => {
+                line("method:", format!("Micro Phase Shifting {compared}"));
+                line("projector:", format!("{} columns", p.projector_columns));
+                let periods: Vec<String> = p.periods().iter().map(|l| format!("{l:.3}")).collect();
+                line(
+                    "fringes:",
+                    format!(
+                        "{} periods (columns; the first at 3 offsets): {}",
+                        p.frequencies,
+                        periods.join(", ")
+                    ),
+                );
+            }
+            MethodPlan::LineScan(p) => {
+                line("method:", format!("line scanning {compared}"));
+                line(
+                    "projector:",
+                    format!("{} columns, one lit per pattern", p.projector_columns),
+                );
+                line("detector:", format!("{:?}", p.detector));
+            }
+            MethodPlan::CodeEnsemble(p) => {
+                line("method:", format!("Code Ensemble {compared}"));
+                let per_codeword = p.projector_columns as f32 / 1024.0;
+                line(
+                    "projector:",
+                    if per_codeword > 1.0 {
+                        format!(
+                            "{} columns, {per_codeword:.3} per codeword",
+                            p.projector_columns
+                        )
+                    } else {
+                        format!("{} columns", p.projector_columns)
+                    },
+                );
+                line(
+                    "codes:",
+                    "conventional Gray, long-run Gray, XOR-04, XOR-02 (10 bits each)".to_owned(),
+                );
+                line(
+                    "agreement:",
+                    format!("two codes within {} codeword(s)", p.agreement_columns),
+                );
+            }
+        }
+        let patterns = self.patterns();
+        line(
+            "frames:",
+            match self {
+                MethodPlan::Fsm(_) => {
+                    format!("{} ({})", self.frame_count(), self.sequence_summary())
+                }
+                _ => format!(
+                    "{} ({} patterns)",
+                    patterns.frame_count(),
+                    patterns.pattern_count()
+                ),
+            },
+        );
+        line("fingerprint:", format!("{:016x}", self.fingerprint()));
+        line(
+            "patterns:",
+            format!(
+                "{:016x} (the fingerprint its row dumps carry)",
+                self.pattern_fingerprint()
+            ),
+        );
+        let mut text = lines.join("\n");
+        text.push('\n');
+        text
     }
 
     /// The FSM plan, or the error a command that takes only FSM plans gives.

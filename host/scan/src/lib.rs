@@ -10,10 +10,12 @@
 //! | Fig. 9 metrics and column errors against ground truth | [`metrics`] | §VII-B |
 //! | `points.ply` | [`ply`] | |
 //! | everything `fsm scan` writes | [`output`] | |
+//! | the whole scan, candidates in, a written folder out | [`pipeline`] | |
 
 pub mod decoded;
 pub mod metrics;
 pub mod output;
+pub mod pipeline;
 pub mod ply;
 pub mod selection;
 pub mod surface;

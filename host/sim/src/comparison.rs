@@ -431,6 +431,16 @@ pub fn html(report: &Report) -> String {
     document(report).html()
 }
 
+/// Writes the report into `dir` three ways: `report.json` (for programs), `report.md` and
+/// `report.html` ([`markdown`], [`html`]), each whole or not at all.
+pub fn write_reports(dir: &Path, report: &Report) -> Result<()> {
+    let json =
+        serde_json::to_vec_pretty(report).map_err(|e| Error::Usage(format!("report.json: {e}")))?;
+    write_file(&dir.join("report.json"), &json)?;
+    write_file(&dir.join("report.md"), markdown(report).as_bytes())?;
+    write_file(&dir.join("report.html"), html(report).as_bytes())
+}
+
 /// The report's content, once for both formats: prose, tables and pictures.
 fn document(report: &Report) -> Document {
     let text = Cell::Text;

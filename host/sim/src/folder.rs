@@ -10,7 +10,7 @@ use std::str::FromStr;
 use fsm_core::ScanPlan;
 use fsm_io::image_files::{read_tiff_f32, write_png_gray16, write_png_gray8, write_tiff_f32};
 use fsm_io::outputs::write_file;
-use fsm_io::plan_file::{write_method_plan, write_plan, MethodPlan};
+use fsm_io::plan_file::{write_method_plan, write_plan, MethodPlan, Preset};
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 
@@ -288,6 +288,73 @@ pub fn write_board_pose(
     let path = truth.join("corners.json");
     let text = serde_json::to_string_pretty(&json).expect("the corners serialise");
     write_file(&path, text.as_bytes())
+}
+
+/// A preset plan as a user of the simulated camera writes it: `decoding.sensor` states the
+/// simulated sensor as its datasheet would (the cosine search sets its threshold from it).
+pub fn preset_plan(preset: Preset) -> ScanPlan {
+    let mut plan = preset.plan();
+    plan.decoding.sensor = Sensor::default().datasheet();
+    plan
+}
+
+/// One pose of a board scan: how messages name it, its sub-folder (`None`: the output
+/// folder itself) and where the board is.
+#[derive(Clone, Debug)]
+pub struct BoardPoseFolder {
+    /// The pose in messages (e.g. the option that gave it).
+    pub label: String,
+    /// Its sub-folder of the output folder, or `None` for the output folder itself.
+    pub folder: Option<String>,
+    /// The board's placement.
+    pub placement: BoardPlacement,
+}
+
+/// Writes the pose folders of `fsm calibrate target` into `dir`: `board.toml` (the target
+/// definition), then every pose ([`write_board_pose`], pose `i`'s noise seed `seed + i`).
+/// Every pose is checked first, the whole board seen and lit ([`check_board_visible`]; the
+/// error names the pose by its label), so a bad pose costs no work. `done(pose, seed)` is
+/// called after each.
+#[allow(clippy::too_many_arguments)]
+pub fn write_board_poses(
+    dir: &Path,
+    plan: &ScanPlan,
+    system: &System,
+    board: &target::PrintedBoard,
+    poses: &[BoardPoseFolder],
+    seed: u64,
+    supersampling: u32,
+    progress: &Progress,
+    mut done: impl FnMut(&BoardPoseFolder, u64),
+) -> Result<()> {
+    for pose in poses {
+        check_board_visible(system, board, &pose.placement.pose(board))
+            .map_err(|e| Error::Usage(format!("{}: {e}", pose.label)))?;
+    }
+    write_file(&dir.join("board.toml"), board.grid.to_toml().as_bytes())?;
+    for (i, pose) in poses.iter().enumerate() {
+        let pose_dir = match &pose.folder {
+            Some(name) => {
+                let pose_dir = dir.join(name);
+                std::fs::create_dir(&pose_dir).map_err(|e| Error::io(&pose_dir, e))?;
+                pose_dir
+            }
+            None => dir.to_path_buf(),
+        };
+        let seed = seed + i as u64;
+        write_board_pose(
+            &pose_dir,
+            plan,
+            system,
+            board,
+            &pose.placement,
+            seed,
+            supersampling,
+            progress,
+        )?;
+        done(pose, seed);
+    }
+    Ok(())
 }
 
 /// The board, its pose and every inner corner's truth (row-major, index = row ·

@@ -21,12 +21,29 @@ pub struct UploadArgs {
     /// Scan-plan file.
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
+    #[command(flatten)]
+    link: DeviceArgs,
+}
+
+/// The camera and how long to wait for it.
+#[derive(clap::Args, Debug)]
+struct DeviceArgs {
     /// The camera: tcp://HOST:PORT or a serial port path (PATH@BAUD).
     #[arg(long, value_name = "ADDR")]
     device: String,
     /// Seconds to wait for each answer.
     #[arg(long, value_name = "S", default_value_t = 10)]
     timeout: u64,
+}
+
+impl DeviceArgs {
+    fn timeout(&self) -> Duration {
+        Duration::from_secs(self.timeout)
+    }
+
+    fn error(&self) -> impl Fn(client::ClientError) -> Error + '_ {
+        move |e| Error::Usage(format!("{}: {e}", self.device))
+    }
 }
 
 /// Talk to a camera: its limits, or a scan whose rows it decodes.
@@ -40,12 +57,8 @@ pub struct CameraArgs {
 enum CameraCommand {
     /// Print the camera's protocol version, limits and loaded plan.
     Info {
-        /// The camera: tcp://HOST:PORT or a serial port path (PATH@BAUD).
-        #[arg(long, value_name = "ADDR")]
-        device: String,
-        /// Seconds to wait for each answer.
-        #[arg(long, value_name = "S", default_value_t = 10)]
-        timeout: u64,
+        #[command(flatten)]
+        link: DeviceArgs,
     },
     /// Scan: upload the plan, stream the rows of a dump to the camera (standing in for its
     /// sensor) and write what it sends back — its candidate file, the same bytes
@@ -54,9 +67,8 @@ enum CameraCommand {
         /// Scan-plan file.
         #[arg(long, value_name = "FILE")]
         plan: PathBuf,
-        /// The camera: tcp://HOST:PORT or a serial port path (PATH@BAUD).
-        #[arg(long, value_name = "ADDR")]
-        device: String,
+        #[command(flatten)]
+        link: DeviceArgs,
         /// Row dump whose rows are sent.
         #[arg(long, value_name = "FILE")]
         dump: PathBuf,
@@ -66,24 +78,17 @@ enum CameraCommand {
         /// Ask for raw rows (a row dump) instead of candidates.
         #[arg(long)]
         raw: bool,
-        /// Seconds to wait for each answer.
-        #[arg(long, value_name = "S", default_value_t = 10)]
-        timeout: u64,
     },
-}
-
-fn link_error(device: &str) -> impl Fn(client::ClientError) -> Error + '_ {
-    move |e| Error::Usage(format!("{device}: {e}"))
 }
 
 pub fn upload(args: UploadArgs) -> Result<()> {
     let plan = super::load_plan(&args.plan)?;
+    let link = &args.link;
     let (fingerprint, info) =
-        client::upload(&args.device, &plan, Duration::from_secs(args.timeout))
-            .map_err(link_error(&args.device))?;
+        client::upload(&link.device, &plan, link.timeout()).map_err(link.error())?;
     eprintln!(
         "{}: plan {} accepted (fingerprint {fingerprint:016x}); camera protocol {}, up to {} pixels per row, {} candidates per pixel",
-        args.device,
+        link.device,
         args.plan.display(),
         info.protocol_version,
         info.max_width,
@@ -94,10 +99,10 @@ pub fn upload(args: UploadArgs) -> Result<()> {
 
 pub fn camera(args: CameraArgs) -> Result<()> {
     match args.command {
-        CameraCommand::Info { device, timeout } => {
-            let info = Client::connect(&device, Duration::from_secs(timeout))
+        CameraCommand::Info { link } => {
+            let info = Client::connect(&link.device, link.timeout())
                 .and_then(|mut c| c.hello())
-                .map_err(link_error(&device))?;
+                .map_err(link.error())?;
             println!("protocol version   {}", info.protocol_version);
             println!("max pixels per row {}", info.max_width);
             println!("max row samples    {}", info.max_row_samples);
@@ -112,11 +117,10 @@ pub fn camera(args: CameraArgs) -> Result<()> {
         }
         CameraCommand::Scan {
             plan,
-            device,
+            link,
             dump,
             out,
             raw,
-            timeout,
         } => {
             let scan_plan = super::load_plan(&plan)?;
             let output = if raw {
@@ -126,17 +130,18 @@ pub fn camera(args: CameraArgs) -> Result<()> {
             };
             let mut file = StagedFile::create(&out)?;
             let summary = client::scan_dump_file(
-                &device,
+                &link.device,
                 &scan_plan,
                 &dump,
                 output,
                 file.writer(),
-                Duration::from_secs(timeout),
+                link.timeout(),
             )
-            .map_err(link_error(&device))?;
+            .map_err(link.error())?;
             file.commit()?;
             eprintln!(
-                "{device}: {} rows of {} scanned (plan {:016x}), {} bytes -> {}",
+                "{}: {} rows of {} scanned (plan {:016x}), {} bytes -> {}",
+                link.device,
                 summary.rows,
                 dump.display(),
                 summary.fingerprint,

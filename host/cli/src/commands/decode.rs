@@ -61,25 +61,14 @@ pub fn run(args: Args) -> Result<()> {
         &options,
         &Progress::stderr(),
     )?;
-    let pixels = summary.pixels().max(1) as f64;
     eprintln!(
-        "decoded {} ({}x{}) in {:.2} s: {:.3} Mpx/s",
+        "decoded {} ({}x{}) in {:.2} s: {:.3} Mpx/s\n  {}",
         capture.describe(),
         summary.width,
         summary.height,
         summary.seconds,
-        summary.megapixels_per_second()
-    );
-    eprintln!(
-        "  {:.1}% of pixels have candidates, {:.2} per lit pixel; {} saturated, {} with more than the file's capacity, \
-         {} aliased (EFSM: two lights unresolved modulo the block width), {} unresolved (two touching \
-         lights not split)",
-        100.0 * summary.lit_pixels as f64 / pixels,
-        summary.candidates as f64 / summary.lit_pixels.max(1) as f64,
-        summary.saturated_pixels,
-        summary.truncated_pixels,
-        summary.aliased_pixels,
-        summary.unresolved_pixels
+        summary.megapixels_per_second(),
+        summary.counts()
     );
     report_bad_rows(&summary);
     eprintln!(

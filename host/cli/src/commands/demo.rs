@@ -3,12 +3,10 @@
 
 use std::path::PathBuf;
 
-use fsm_io::outputs::{write_file, StagedDir};
-use fsm_io::{Error, Result};
+use fsm_io::outputs::StagedDir;
+use fsm_io::Result;
 use fsm_sim::comparison;
 use fsm_sim::System;
-
-use super::simulate::parse_size;
 
 /// Run the paper's comparison on simulated scenes: FSM and the methods it is compared with
 /// (phase shift, Micro Phase Shifting, Code Ensemble, line scanning), with and without a
@@ -46,7 +44,7 @@ pub struct Args {
     #[arg(long, value_name = "DIR", default_value = "fsm-demo")]
     out: PathBuf,
     /// Camera size WxH (same field of view).
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = parse_size)]
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = |s: &str| super::parse_size(s, 8))]
     camera: (u32, u32),
     /// Noise seed.
     #[arg(long, default_value_t = 1)]
@@ -67,17 +65,7 @@ pub fn run(args: Args) -> Result<()> {
     let report = comparison::run(&system, args.seed, staged.path(), |line| {
         eprintln!("  {line}")
     })?;
-    let json = serde_json::to_vec_pretty(&report)
-        .map_err(|e| Error::Usage(format!("report.json: {e}")))?;
-    write_file(&staged.file("report.json"), &json)?;
-    write_file(
-        &staged.file("report.md"),
-        comparison::markdown(&report).as_bytes(),
-    )?;
-    write_file(
-        &staged.file("report.html"),
-        comparison::html(&report).as_bytes(),
-    )?;
+    comparison::write_reports(staged.path(), &report)?;
     let out = staged.commit()?;
     eprintln!(
         "fsm demo: report in {} (and report.md, report.json beside it)",

@@ -55,37 +55,9 @@ impl BadRowsArg {
 
 /// Tells what a decode skipped ([`BadRows::Skip`]), on stderr.
 pub fn report_bad_rows(summary: &fsm_io::decode::DecodeSummary) {
-    if summary.rows_without_data.is_empty() && summary.bad_records.is_empty() {
-        return;
+    if let Some(skipped) = summary.skipped() {
+        eprintln!("  {}", skipped.replace('\n', "\n  "));
     }
-    eprintln!(
-        "  skipped {} bad record(s); {} row(s) without data, no point: {}",
-        summary.bad_records.len(),
-        summary.rows_without_data.len(),
-        row_list(&summary.rows_without_data)
-    );
-    for bad in &summary.bad_records {
-        eprintln!("    {}", bad.error);
-    }
-}
-
-/// `3, 7-9, 12`.
-fn row_list(rows: &[u32]) -> String {
-    let mut parts: Vec<String> = Vec::new();
-    let mut i = 0;
-    while i < rows.len() {
-        let mut j = i;
-        while j + 1 < rows.len() && rows[j + 1] == rows[j] + 1 {
-            j += 1;
-        }
-        parts.push(if j == i {
-            rows[i].to_string()
-        } else {
-            format!("{}-{}", rows[i], rows[j])
-        });
-        i = j + 1;
-    }
-    parts.join(", ")
 }
 
 /// How much of a capture is held in memory (`fsm convert`, and every decoding command).
@@ -154,6 +126,26 @@ impl CaptureSource {
 /// Reads the plan file.
 pub fn load_plan(path: &std::path::Path) -> Result<ScanPlan> {
     plan_file::read_plan(path)
+}
+
+/// The `--preset` names (`fsm plan`, `fsm simulate`).
+pub fn preset_parser() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(fsm_io::plan_file::Preset::ALL.map(|(_, n)| n))
+}
+
+/// `WxH`, both at least `min`.
+pub fn parse_size(s: &str, min: u32) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 1280x1024"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&v| v >= min)
+            .ok_or_else(|| format!("`{s}`: `{v}` is not a size of {min} or more pixels"))
+    };
+    Ok((parse(w)?, parse(h)?))
 }
 
 /// `X,Y` pixel coordinates.

@@ -56,7 +56,7 @@ pub fn run(args: Args) -> Result<()> {
     let response_file = args.gamma.as_deref().or(args.calibration.as_deref());
     let response = match (&args.gamma, &args.calibration) {
         (Some(path), _) => Some(ProjectorResponse::read(path)?),
-        (None, Some(path)) => Some(super::calibrate::response::response_from_calibration(path)?),
+        (None, Some(path)) => Some(fsm_calibrate::response::response_from_calibration(path)?),
         (None, None) => None,
     };
     let options = PatternOptions {

@@ -3,13 +3,10 @@
 
 use std::path::{Path, PathBuf};
 
+use clap::builder::PossibleValuesParser;
 use clap::ValueEnum;
-use fsm_core::{
-    CodeEnsemblePlan, GroupCount, LineScanPlan, Method, MicroPhaseShiftPlan, PhaseShiftPlan,
-    ScanPlan,
-};
-use fsm_io::plan_file::{self, MethodPlan, PlanSyntax, Preset};
-use fsm_io::stack::sequence_summary;
+use fsm_core::GroupCount;
+use fsm_io::plan_file::{self, MethodKind, MethodPlan, PlanSyntax, Preset};
 use fsm_io::{Error, Result};
 
 /// Write or check a plan file (TOML or JSON, chosen by the file extension).
@@ -33,19 +30,21 @@ use fsm_io::{Error, Result};
 #[command(verbatim_doc_comment)]
 pub struct Args {
     /// Start from a preset: the paper's systems (§VII): 768 projector columns; BFSM with 768
-    /// fringes, or EFSM with 64-column blocks and one or two groups (76 / 152 patterns).
-    #[arg(long, value_enum, conflicts_with_all = ["check", "method"])]
-    preset: Option<PresetName>,
+    /// fringes, or EFSM with 64-column blocks and one or two groups (76 / 152 patterns); the
+    /// -fast ones are decoded by the paper's local-maximum search (Hann, Gaussian, N = 64),
+    /// the camera's fast decoder, less accurate on blurred light.
+    #[arg(long, conflicts_with_all = ["check", "method"], value_parser = super::preset_parser())]
+    preset: Option<String>,
     /// Make a plan of this method for a projector of --projector-columns columns: BFSM, EFSM,
     /// or one of the methods the paper compares them with (phase shift + Gray code, Micro Phase
     /// Shifting, Code Ensemble, line scanning; see docs/comparison.md).
     #[arg(
         long,
-        value_enum,
         conflicts_with = "check",
-        requires = "projector_columns"
+        requires = "projector_columns",
+        value_parser = PossibleValuesParser::new(MethodKind::ALL.map(|(_, n)| n))
     )]
-    method: Option<MethodName>,
+    method: Option<String>,
     /// The projector's columns, for --method.
     #[arg(long, value_name = "COLUMNS", requires = "method")]
     projector_columns: Option<u16>,
@@ -77,71 +76,6 @@ pub struct Args {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
-enum PresetName {
-    /// ScanPlan::paper_bfsm(): BFSM, 768 columns, 768 fringes f = m/1536, N = 1024.
-    PaperBfsm,
-    /// ScanPlan::paper_efsm(One): EFSM, block width 64, one group (76 patterns).
-    #[value(name = "paper-efsm-1")]
-    PaperEfsm1,
-    /// ScanPlan::paper_efsm(Two): EFSM, block width 64, two groups (152 patterns).
-    #[value(name = "paper-efsm-2")]
-    PaperEfsm2,
-    /// paper-efsm-1 decoded by the paper's local-maximum search (Hann, Gaussian, N = 64): the
-    /// camera's fast decoder, less accurate on blurred light than CLEAN.
-    #[value(name = "paper-efsm-1-fast")]
-    PaperEfsm1Fast,
-    /// paper-efsm-2 decoded by the local-maximum search.
-    #[value(name = "paper-efsm-2-fast")]
-    PaperEfsm2Fast,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum MethodName {
-    /// Basic FSM: one fringe per projector column.
-    Bfsm,
-    /// Extended FSM: fringes of one block width, blocks told apart by masks.
-    Efsm,
-    /// Phase shift (6 offsets, period 12 columns) with Gray codes.
-    PhaseShift,
-    /// Micro Phase Shifting (Gupta & Nayar): 15 periods over 14-18 columns, 17 patterns.
-    MicroPhaseShift,
-    /// Code Ensemble (Gupta et al.): four 10-bit binary codes with their inverses, 80 patterns.
-    CodeEnsemble,
-    /// Line scanning: one column lit per pattern.
-    LineScan,
-}
-
-impl MethodName {
-    fn plan(self, columns: u16, block_width: u16, groups: u8) -> MethodPlan {
-        match self {
-            MethodName::Bfsm => MethodPlan::Fsm(ScanPlan::bfsm(columns)),
-            MethodName::Efsm => MethodPlan::Fsm(ScanPlan::efsm(
-                columns,
-                block_width,
-                if groups == 1 {
-                    GroupCount::One
-                } else {
-                    GroupCount::Two
-                },
-            )),
-            MethodName::PhaseShift => {
-                MethodPlan::PhaseShift(PhaseShiftPlan::for_projector(columns))
-            }
-            MethodName::MicroPhaseShift => {
-                MethodPlan::MicroPhaseShift(MicroPhaseShiftPlan::spread(columns, 16.0, 4.0, 15))
-            }
-            MethodName::CodeEnsemble => {
-                MethodPlan::CodeEnsemble(CodeEnsemblePlan::for_projector(columns))
-            }
-            MethodName::LineScan => MethodPlan::LineScan(LineScanPlan {
-                projector_columns: columns,
-                ..LineScanPlan::paper()
-            }),
-        }
-    }
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
 enum Syntax {
     Toml,
     Json,
@@ -157,24 +91,23 @@ pub fn run(args: Args) -> Result<()> {
         print_summary(&plan);
         return write_wire(&plan, args.wire.as_deref());
     }
-    let (start, origin) = match (args.preset, args.method, args.projector_columns) {
-        (Some(preset), _, _) => {
-            let preset = match preset {
-                PresetName::PaperBfsm => Preset::PaperBfsm,
-                PresetName::PaperEfsm1 => Preset::PaperEfsm1,
-                PresetName::PaperEfsm2 => Preset::PaperEfsm2,
-                PresetName::PaperEfsm1Fast => Preset::PaperEfsm1Fast,
-                PresetName::PaperEfsm2Fast => Preset::PaperEfsm2Fast,
+    let (start, origin) = match (&args.preset, &args.method, args.projector_columns) {
+        (Some(name), _, _) => (
+            MethodPlan::Fsm(Preset::from_name(name).expect("clap checked").plan()),
+            format!("preset {name}"),
+        ),
+        (None, Some(name), Some(columns)) => {
+            let groups = if args.groups == 1 {
+                GroupCount::One
+            } else {
+                GroupCount::Two
             };
+            let method = MethodKind::from_name(name).expect("clap checked");
             (
-                MethodPlan::Fsm(preset.plan()),
-                format!("preset {}", preset.name()),
+                method.plan(columns, args.block_width, groups),
+                format!("--method {name} --projector-columns {columns}"),
             )
         }
-        (None, Some(method), Some(columns)) => (
-            method.plan(columns, args.block_width, args.groups),
-            format!("--method {method:?} --projector-columns {columns}"),
-        ),
         _ => {
             return Err(Error::Usage(
                 "give --preset NAME or --method NAME --projector-columns N (to write a plan), or --check FILE (to check one); see fsm plan --help".into(),
@@ -229,103 +162,5 @@ fn write_wire(plan: &MethodPlan, path: Option<&Path>) -> Result<()> {
 }
 
 fn print_summary(plan: &MethodPlan) {
-    let patterns = plan.patterns();
-    match plan {
-        MethodPlan::Fsm(plan) => print_fsm_summary(plan),
-        MethodPlan::PhaseShift(p) => {
-            println!("  method:        phase shift + Gray code (a method FSM is compared with)");
-            println!("  projector:     {} columns", p.projector_columns);
-            println!(
-                "  fringes:       {} offsets of period {} columns; {} Gray-code bits",
-                p.steps, p.period_columns, p.bits
-            );
-        }
-        MethodPlan::MicroPhaseShift(p) => {
-            println!("  method:        Micro Phase Shifting (a method FSM is compared with)");
-            println!("  projector:     {} columns", p.projector_columns);
-            let periods: Vec<String> = p.periods().iter().map(|l| format!("{l:.3}")).collect();
-            println!(
-                "  fringes:       {} periods (columns; the first at 3 offsets): {}",
-                p.frequencies,
-                periods.join(", ")
-            );
-        }
-        MethodPlan::LineScan(p) => {
-            println!("  method:        line scanning (a method FSM is compared with)");
-            println!(
-                "  projector:     {} columns, one lit per pattern",
-                p.projector_columns
-            );
-            println!("  detector:      {:?}", p.detector);
-        }
-        MethodPlan::CodeEnsemble(p) => {
-            println!("  method:        Code Ensemble (a method FSM is compared with)");
-            let per_codeword = p.projector_columns as f32 / 1024.0;
-            if per_codeword > 1.0 {
-                println!(
-                    "  projector:     {} columns, {per_codeword:.3} per codeword",
-                    p.projector_columns
-                );
-            } else {
-                println!("  projector:     {} columns", p.projector_columns);
-            }
-            println!(
-                "  codes:         conventional Gray, long-run Gray, XOR-04, XOR-02 (10 bits each)"
-            );
-            println!(
-                "  agreement:     two codes within {} codeword(s)",
-                p.agreement_columns
-            );
-        }
-    }
-    if !matches!(plan, MethodPlan::Fsm(_)) {
-        println!(
-            "  frames:        {} ({} patterns)",
-            patterns.frame_count(),
-            patterns.pattern_count()
-        );
-        println!("  fingerprint:   {:016x}", patterns.fingerprint());
-        println!(
-            "  patterns:      {:016x} (the fingerprint its row dumps carry)",
-            patterns.pattern_fingerprint()
-        );
-    }
-}
-
-fn print_fsm_summary(plan: &ScanPlan) {
-    let method = match plan.method {
-        Method::Bfsm => "BFSM".to_owned(),
-        Method::Efsm(b) => format!(
-            "EFSM, block width {} columns, {} group(s), border guard {} columns",
-            b.block_width,
-            plan.group_count(),
-            b.border_guard
-        ),
-    };
-    println!("  method:        {method}");
-    println!("  projector:     {} columns", plan.projector_columns);
-    println!(
-        "  fringes:       {} per group, f = {}/{} … {}/{} cycles per column",
-        plan.band.count,
-        plan.band.first_harmonic,
-        plan.band.period_columns,
-        plan.band.first_harmonic + plan.band.count as u32 - 1,
-        plan.band.period_columns
-    );
-    println!(
-        "  resolution:    {:.3} columns (two columns closer than {:.3} are not separable)",
-        plan.column_resolution(),
-        2.0 * plan.column_resolution()
-    );
-    println!("  DFT size N:    {}", plan.transform_size);
-    println!(
-        "  frames:        {} ({})",
-        plan.sequence_len(),
-        sequence_summary(plan)
-    );
-    println!("  fingerprint:   {:016x}", plan.fingerprint());
-    println!(
-        "  patterns:      {:016x} (the fingerprint its row dumps carry)",
-        plan.pattern_fingerprint()
-    );
+    print!("{}", plan.description());
 }

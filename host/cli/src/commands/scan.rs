@@ -2,18 +2,13 @@
 //! direct one of every pixel, drop what the projector cannot light directly.
 
 use std::path::PathBuf;
-use std::time::Instant;
 
 use fsm_geometry::Calibration;
-use fsm_io::decode::DecodeSummary;
 use fsm_io::outputs::StagedDir;
-use fsm_io::plan_file::MethodPlan;
 use fsm_io::progress::Progress;
-use fsm_io::{Error, Result};
-use fsm_scan::decoded::DecodedImage;
-use fsm_scan::metrics::point_errors_from_depth;
-use fsm_scan::output::{write_scan, ScanSummary, StageSeconds, TruthSummary};
-use fsm_scan::{Paths, SelectionParams, Surface};
+use fsm_io::Result;
+use fsm_scan::pipeline::{scan_into, CalibrationFile, ScanCandidates, Truth};
+use fsm_scan::{Paths, SelectionParams};
 
 use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
 
@@ -144,177 +139,63 @@ fn parse_paths(s: &str) -> std::result::Result<u8, String> {
     }
 }
 
-/// Reads a calibration file, its errors as host errors.
-pub fn load_calibration(path: &std::path::Path) -> Result<Calibration> {
-    Calibration::read(path).map_err(|e| Error::Usage(e.to_string()))
-}
-
-/// The scan's candidates and where they came from.
-struct Decoded {
-    image: DecodedImage,
-    /// What the candidates came from, for messages.
-    source: String,
-    /// The decode's summary, when this command decoded.
-    summary: Option<DecodeSummary>,
-    seconds: f64,
-}
-
-impl Args {
-    /// Decodes the capture, or reads the candidate file; checks the size against the camera's.
-    fn decoded(&self, plan: &MethodPlan, calibration: &Calibration) -> Result<Decoded> {
-        let started = Instant::now();
-        let decoded = match &self.candidates {
-            Some(path) => {
-                let depth = self.bit_depth.bit_depth;
-                // Any depth tells whether the method measures quality in the sensor's noise.
-                let bit_depth = match depth {
-                    Some(bits) => bits,
-                    None if plan.dark_column_noise_dn(16).is_none() => 16,
-                    None => {
-                        return Err(Error::Usage(format!(
-                            "--candidates {}: a candidate file does not record the sensor's bit \
-                             depth, which a point's quality is measured in; give the capture's \
-                             with --bit-depth (e.g. 12)",
-                            path.display()
-                        )))
-                    }
-                };
-                Decoded {
-                    image: DecodedImage::read_candidates(plan, path, bit_depth)?,
-                    source: format!("candidate file {}", path.display()),
-                    summary: None,
-                    seconds: 0.0,
-                }
-            }
-            None => {
-                let capture = self
-                    .source
-                    .open(*plan, &self.bit_depth, self.bad_rows.policy())?;
-                check_camera_size(
-                    &self.calibration,
-                    calibration,
-                    &capture.describe(),
-                    (capture.width(), capture.height()),
-                )?;
-                let (image, summary) = DecodedImage::decode_capture(
-                    *plan,
-                    &capture,
-                    &self.decode.options(),
-                    &Progress::stderr(),
-                )?;
-                Decoded {
-                    image,
-                    source: capture.describe(),
-                    summary: Some(summary),
-                    seconds: 0.0,
-                }
-            }
-        };
-        let candidates = &decoded.image.candidates;
-        check_camera_size(
-            &self.calibration,
-            calibration,
-            &decoded.source,
-            (candidates.width() as u32, candidates.height() as u32),
-        )?;
-        Ok(Decoded {
-            seconds: started.elapsed().as_secs_f64(),
-            ..decoded
-        })
-    }
-}
-
-/// Refuses a capture whose size is not the calibrated camera's.
-fn check_camera_size(
-    calibration_path: &std::path::Path,
-    calibration: &Calibration,
-    source: &str,
-    (width, height): (u32, u32),
-) -> Result<()> {
-    let camera = &calibration.camera;
-    if (camera.width_px(), camera.height_px()) == (width, height) {
-        return Ok(());
-    }
-    Err(Error::Usage(format!(
-        "{}: the calibrated camera is {}x{} pixels, the capture {source} is {width}x{height}",
-        calibration_path.display(),
-        camera.width_px(),
-        camera.height_px(),
-    )))
-}
-
 pub fn run(args: Args) -> Result<()> {
     let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
-    let calibration = load_calibration(&args.calibration)?;
-    let plan_columns = plan.patterns().projector_columns();
-    if calibration.projector_columns() != plan_columns as u32 {
-        return Err(Error::Usage(format!(
-            "{}: the projector has {} columns, the plan {} addresses {plan_columns}",
-            args.calibration.display(),
-            calibration.projector_columns(),
-            args.plan.display(),
-        )));
-    }
-    let camera = &calibration.camera;
+    let calibration = CalibrationFile::read_for(&args.calibration, &plan, &args.plan)?;
+    let camera = &calibration.calibration.camera;
     // Read before any work: a bad truth folder fails fast.
     let truth = match &args.truth {
-        Some(dir) => Some((
+        Some(dir) => Some(fsm_sim::folder::read_truth(
             dir,
-            fsm_sim::folder::read_truth(dir, camera.width_px(), camera.height_px())?,
-        )),
+            camera.width_px(),
+            camera.height_px(),
+        )?),
         None => None,
     };
     let staged = StagedDir::create(&args.out, args.force)?;
-    let decoded = args.decoded(&plan, &calibration)?;
-    let params = args.selection.params(&calibration);
-    let (surface, times) = Surface::reconstruct(&decoded.image, &calibration, &params);
-    let method = plan.name();
-    let seconds = StageSeconds {
-        decode: decoded.seconds,
-        triangulate: times.triangulate_seconds,
-        select: times.select_seconds,
-    };
-    let mut summary = ScanSummary::new(
-        method,
-        plan.fingerprint(),
-        &decoded.image,
-        &surface,
-        &params,
-        &calibration,
-        seconds,
-    );
-    summary.rows_without_data = decoded.image.candidates.rows_without_data();
-    if let Some(d) = &decoded.summary {
-        summary.bad_records = d.bad_records.iter().map(|b| b.error.clone()).collect();
-    }
-    summary.truth = truth.map(|(dir, (depth, lit))| {
-        let errors = point_errors_from_depth(&surface.point_mm, &depth, &lit, 1.0);
-        TruthSummary {
-            folder: dir.display().to_string(),
-            errors,
-            wrong_share: errors.wrong_share(),
-            completeness: errors.completeness(),
+    let candidates = match &args.candidates {
+        Some(path) => ScanCandidates::read(&plan, path, args.bit_depth.bit_depth, &calibration)?,
+        None => {
+            let capture = args
+                .source
+                .open(plan, &args.bit_depth, args.bad_rows.policy())?;
+            let options = args.decode.options();
+            ScanCandidates::decode(plan, &capture, &calibration, &options, &Progress::stderr())?
         }
-    });
-    write_scan(staged.path(), &surface, &summary)?;
+    };
+    let params = args.selection.params(&calibration.calibration);
+    let truth = args.truth.as_deref().zip(truth.as_ref());
+    let scanned = scan_into(
+        staged.path(),
+        &plan,
+        &candidates,
+        &calibration.calibration,
+        &params,
+        truth.map(|(folder, (depth_mm, lit))| Truth {
+            folder,
+            depth_mm,
+            lit,
+        }),
+    )?;
     let out = staged.commit()?;
+    let (surface, summary) = (&scanned.surface, &scanned.summary);
     eprintln!(
         "scanned {} ({}x{}): {} points of {} pixels from {} candidates ({} in the volume); {} {:.2} s, \
          triangulation {:.2} s, selection {:.2} s -> {}",
-        decoded.source,
+        candidates.source,
         surface.width,
         surface.height,
         summary.points,
         surface.width * surface.height,
         summary.candidates,
         summary.candidates_in_volume,
-        if decoded.summary.is_some() { "decode" } else { "reading" },
-        decoded.seconds,
-        times.triangulate_seconds,
-        times.select_seconds,
+        if candidates.decode.is_some() { "decode" } else { "reading" },
+        candidates.seconds,
+        summary.triangulate_seconds,
+        summary.select_seconds,
         out.display()
     );
-    if let Some(d) = &decoded.summary {
+    if let Some(d) = &candidates.decode {
         report_bad_rows(d);
     }
     Ok(())

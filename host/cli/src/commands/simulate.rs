@@ -5,14 +5,14 @@
 use std::path::PathBuf;
 
 use fsm_calibrate::board::Checkerboard;
-use fsm_io::outputs::{write_file, StagedDir};
+use fsm_io::outputs::StagedDir;
 use fsm_io::plan_file::{MethodPlan, Preset};
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
-use fsm_sim::folder::{self, BoardPlacement, SPREAD};
+use fsm_sim::folder::{self, BoardPlacement, BoardPoseFolder, SPREAD};
 use fsm_sim::scene::presets::NAMES;
 use fsm_sim::target::PrintedBoard;
-use fsm_sim::{Scene, Sensor, System};
+use fsm_sim::{Scene, System};
 
 /// The scene name of the calibration target (not a preset: it takes a board and a pose).
 pub const CHECKERBOARD: &str = "checkerboard";
@@ -75,13 +75,13 @@ pub struct Args {
     plan: Option<PathBuf>,
     /// A preset plan instead of a file: paper-bfsm, paper-efsm-1 or paper-efsm-2 (one of
     /// the two is required, except for --scene checkerboard: default paper-efsm-1).
-    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Preset::ALL.map(|(_, n)| n)))]
+    #[arg(long, value_parser = super::preset_parser())]
     preset: Option<String>,
     /// Output folder (created; must not exist or be empty, unless --force).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Camera size WxH (same field of view; the footprint shrinks as it grows).
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = parse_size)]
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = |s: &str| super::parse_size(s, 8))]
     camera: (u32, u32),
     /// Noise seed.
     #[arg(long, default_value_t = 1)]
@@ -112,20 +112,6 @@ pub struct Args {
     /// Checkerboard: N pose folders pose-01 … pose-N at a spread of tilted poses (1-9).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=SPREAD.len() as i64))]
     board_poses: Option<u8>,
-}
-
-/// `WxH`.
-pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once('x')
-        .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 320x240"))?;
-    let parse = |v: &str| {
-        v.parse::<u32>()
-            .ok()
-            .filter(|&v| v >= 8)
-            .ok_or_else(|| format!("`{s}`: `{v}` is not a size of 8 or more"))
-    };
-    Ok((parse(w)?, parse(h)?))
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -179,18 +165,13 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 /// The plan of `--plan` (as it is), or of `--preset` (or `default`, a preset name) stating
-/// the simulated camera's sensor as its datasheet would (`decoding.sensor`: the cosine search
-/// sets its threshold from it), else an error.
+/// the simulated camera's sensor, else an error.
 fn plan_of(args: &Args, default: Option<&str>) -> Result<MethodPlan> {
     Ok(match (&args.plan, args.preset.as_deref().or(default)) {
         (Some(path), _) => fsm_io::plan_file::read_method_plan(path)?,
-        (None, Some(name)) => {
-            let mut plan = Preset::from_name(name)
-                .expect("clap checked the name")
-                .plan();
-            plan.decoding.sensor = Sensor::default().datasheet();
-            MethodPlan::Fsm(plan)
-        }
+        (None, Some(name)) => MethodPlan::Fsm(folder::preset_plan(
+            Preset::from_name(name).expect("clap checked the name"),
+        )),
         (None, None) => {
             return Err(Error::Usage(format!(
                 "--scene {}: give the plan with --plan FILE or --preset NAME",
@@ -202,13 +183,12 @@ fn plan_of(args: &Args, default: Option<&str>) -> Result<MethodPlan> {
 
 /// `--scene checkerboard`: one pose folder (`--board-pose`) or `--board-poses` of them.
 fn run_board(args: Args) -> Result<()> {
-    let sim_board = match &args.board {
+    let board = match &args.board {
         Some(path) => {
             PrintedBoard::new(Checkerboard::read(path).map_err(|e| Error::Usage(e.to_string()))?)
         }
         None => PrintedBoard::bench(),
     };
-    let board = sim_board.grid;
     // The board's scans are decoded for calibration, which takes FSM plans.
     let plan = plan_of(&args, Some(BOARD_PRESET))?
         .fsm()
@@ -217,19 +197,17 @@ fn run_board(args: Args) -> Result<()> {
             source,
         })?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
-    // (label for messages, sub-folder or None for the output folder itself, placement)
-    type Poses = Vec<(String, Option<String>, BoardPlacement)>;
-    let poses: Poses = match (args.board_pose, args.board_poses) {
-        (Some(p), _) => vec![(format!("--board-pose {p}"), None, p)],
-        (None, Some(n)) => SPREAD[..n as usize]
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                (
-                    format!("--board-poses: pose {} ({p})", i + 1),
-                    Some(format!("pose-{:02}", i + 1)),
-                    *p,
-                )
+    let poses: Vec<BoardPoseFolder> = match (args.board_pose, args.board_poses) {
+        (Some(p), _) => vec![BoardPoseFolder {
+            label: format!("--board-pose {p}"),
+            folder: None,
+            placement: p,
+        }],
+        (None, Some(n)) => (SPREAD[..n as usize].iter().enumerate())
+            .map(|(i, p)| BoardPoseFolder {
+                label: format!("--board-poses: pose {} ({p})", i + 1),
+                folder: Some(format!("pose-{:02}", i + 1)),
+                placement: *p,
             })
             .collect(),
         (None, None) => {
@@ -239,53 +217,40 @@ fn run_board(args: Args) -> Result<()> {
             )))
         }
     };
-    // Every pose is checked before any work: the whole board seen and lit.
-    for (label, _, placement) in &poses {
-        folder::check_board_visible(&system, &sim_board, &placement.pose(&sim_board))
-            .map_err(|e| Error::Usage(format!("{label}: {e}")))?;
-    }
     let staged = StagedDir::create(&args.out, args.force)?;
-    write_file(&staged.file("board.toml"), board.to_toml().as_bytes())?;
     let t0 = std::time::Instant::now();
-    for (i, (_, folder, placement)) in poses.iter().enumerate() {
-        let dir = match folder {
-            Some(name) => {
-                let dir = staged.file(name);
-                std::fs::create_dir(&dir).map_err(|e| Error::io(&dir, e))?;
-                dir
-            }
-            None => staged.path().to_path_buf(),
-        };
-        let seed = args.seed + i as u64;
-        folder::write_board_pose(
-            &dir,
-            &plan,
-            &system,
-            &sim_board,
-            placement,
-            seed,
-            args.supersampling,
-            &Progress::stderr(),
-        )?;
-        let name = folder.as_deref().unwrap_or("pose");
-        eprintln!(
-            "{name}: yaw {} pitch {} roll {} deg, centre ({}, {}, {}) mm, seed {seed} ({:.1} s)",
-            placement.yaw_deg,
-            placement.pitch_deg,
-            placement.roll_deg,
-            placement.centre_mm[0],
-            placement.centre_mm[1],
-            placement.centre_mm[2],
-            t0.elapsed().as_secs_f64()
-        );
-    }
+    let progress = Progress::stderr();
+    let (seed, rays) = (args.seed, args.supersampling);
+    folder::write_board_poses(
+        staged.path(),
+        &plan,
+        &system,
+        &board,
+        &poses,
+        seed,
+        rays,
+        &progress,
+        |pose, seed| {
+            let p = &pose.placement;
+            eprintln!(
+                "{}: yaw {} pitch {} roll {} deg, centre ({}, {}, {}) mm, seed {seed} ({:.1} s)",
+                pose.folder.as_deref().unwrap_or("pose"),
+                p.yaw_deg,
+                p.pitch_deg,
+                p.roll_deg,
+                p.centre_mm[0],
+                p.centre_mm[1],
+                p.centre_mm[2],
+                t0.elapsed().as_secs_f64()
+            )
+        },
+    )?;
     let out = staged.commit()?;
-    let (w, h) = args.camera;
+    let ((w, h), grid) = (args.camera, &board.grid);
     eprintln!(
-        "simulated {} {}x{} board at {} pose{} ({w}x{h}, {} frames each) -> {}",
-        CHECKERBOARD,
-        board.inner_columns,
-        board.inner_rows,
+        "simulated {CHECKERBOARD} {}x{} board at {} pose{} ({w}x{h}, {} frames each) -> {}",
+        grid.inner_columns,
+        grid.inner_rows,
         poses.len(),
         if poses.len() == 1 { "" } else { "s" },
         plan.sequence_len(),

@@ -392,10 +392,19 @@ fn staging_entries(dir: &Path) -> Vec<String> {
         .collect()
 }
 
-/// Replaces `frame` with a pipe that gives its bytes once — to the stack's header check —
-/// and then nothing: the decode that opens it again waits there, its output staged.
+/// Replaces `frame` with a pipe that gives its bytes once and then nothing, its writing end
+/// held open until [`HeldFrame::release`]: the stack's header check reads what it needs, and
+/// the decode that opens the frame again reads the rest and waits for more, its output
+/// staged. (A writer that closed its end early raced with the decode's open: the decode then
+/// read a truncated frame instead of waiting.)
 #[cfg(unix)]
-fn hold_at_frame(frame: &Path) -> std::thread::JoinHandle<()> {
+struct HeldFrame {
+    release: std::sync::mpsc::Sender<()>,
+    writer: std::thread::JoinHandle<()>,
+}
+
+#[cfg(unix)]
+fn hold_at_frame(frame: &Path) -> HeldFrame {
     use std::io::Write;
     let bytes = fs::read(frame).unwrap();
     fs::remove_file(frame).unwrap();
@@ -405,11 +414,23 @@ fn hold_at_frame(frame: &Path) -> std::thread::JoinHandle<()> {
         .unwrap();
     assert!(made.success());
     let frame = frame.to_path_buf();
-    std::thread::spawn(move || {
-        // Blocks until the header check opens it; a reader that stops early is fine.
+    let (release, released) = std::sync::mpsc::channel();
+    let writer = std::thread::spawn(move || {
+        // Blocks until the header check opens it; the frame fits in the pipe's buffer.
         let mut pipe = fs::OpenOptions::new().write(true).open(&frame).unwrap();
         let _ = pipe.write_all(&bytes);
-    })
+        let _ = released.recv();
+    });
+    HeldFrame { release, writer }
+}
+
+#[cfg(unix)]
+impl HeldFrame {
+    /// Closes the pipe's writing end.
+    fn release(self) {
+        drop(self.release);
+        self.writer.join().unwrap();
+    }
 }
 
 /// Runs `fsm args`, waits until it has staged its output in `parent`, sends `signal` (a
@@ -489,9 +510,9 @@ fn interrupted_runs_leave_nothing_behind() {
         s(&decode_out),
     ];
     for (args, signal, code) in [(&scan, "TERM", 143), (&decode, "INT", 130)] {
-        let writer = hold_at_frame(&last);
+        let held = hold_at_frame(&last);
         let (got, stderr) = interrupt(args, &outs, signal);
-        writer.join().unwrap();
+        held.release();
         assert_eq!(got, Some(code), "fsm {}: {stderr}", args[0]);
         assert!(
             stderr.contains(&format!("stopped by SIG{signal}")) && stderr.contains("removed"),
@@ -509,9 +530,9 @@ fn interrupted_runs_leave_nothing_behind() {
     }
 
     // SIGKILL cannot be handled: the staging folder stays, and the next run removes it.
-    let writer = hold_at_frame(&last);
+    let held = hold_at_frame(&last);
     let (got, _) = interrupt(&scan, &outs, "KILL");
-    writer.join().unwrap();
+    held.release();
     assert_eq!(got, Some(-9));
     let left = staging_entries(&outs);
     assert_eq!(left.len(), 1, "{left:?}");

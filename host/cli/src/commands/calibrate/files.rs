@@ -2,54 +2,25 @@
 
 use std::path::PathBuf;
 
-use clap::ValueEnum;
+use clap::builder::{PossibleValuesParser, TypedValueParser as _};
 use fsm_geometry::opencv::{self, ImportOptions, LengthUnit, Syntax, Tool};
 use fsm_geometry::Calibration;
 use fsm_io::{Error, Result};
 
-/// The tools whose files are read and written.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum Format {
-    /// SLStudio: Kc kc Kp kp Rp Tp (XML; X_p = Rp·X_c + Tp, mm).
-    Slstudio,
-    /// scan3d-capture (Moreno & Taubin): cam_K cam_kc proj_K proj_kc R T (YAML; X_p = R·X_c + T,
-    /// mm).
-    #[value(name = "scan3d-capture")]
-    Scan3dCapture,
-    /// procam-calibration (kamino410): cam_int cam_dist proj_int proj_dist roration translation
-    /// (XML; X_p = roration·X_c + translation, in the unit of its chessboard squares).
-    Procam,
+/// `--format`: the tools whose files are read and written.
+fn tool_parser() -> impl clap::builder::TypedValueParser<Value = Tool> {
+    PossibleValuesParser::new(Tool::ALL.map(Tool::name)).map(|name| {
+        Tool::ALL
+            .into_iter()
+            .find(|t| t.name() == name)
+            .expect("listed")
+    })
 }
 
-impl Format {
-    fn tool(self) -> Tool {
-        match self {
-            Format::Slstudio => Tool::SlStudio,
-            Format::Scan3dCapture => Tool::Scan3dCapture,
-            Format::Procam => Tool::Procam,
-        }
-    }
-}
-
-/// The unit of the other tool's translation.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum Unit {
-    /// Millimetres.
-    Mm,
-    /// Centimetres.
-    Cm,
-    /// Metres.
-    M,
-}
-
-impl Unit {
-    fn length(self) -> LengthUnit {
-        match self {
-            Unit::Mm => LengthUnit::Mm,
-            Unit::Cm => LengthUnit::Cm,
-            Unit::M => LengthUnit::M,
-        }
-    }
+/// `--unit`.
+fn unit_parser() -> impl clap::builder::TypedValueParser<Value = LengthUnit> {
+    PossibleValuesParser::new(["mm", "cm", "m"])
+        .map(|name| LengthUnit::from_name(&name).expect("listed"))
 }
 
 const IMPORT_HELP: &str = "\
@@ -79,28 +50,16 @@ Examples:
   fsm calibrate export --calibration cal.toml --format slstudio --out calibration.xml
   fsm calibrate export --calibration cal.toml --format scan3d-capture --out calibration.yml";
 
-/// `WxH`, both at least 1.
-fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once('x')
-        .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 1280x1024"))?;
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .ok()
-            .filter(|&v| v >= 1)
-            .ok_or_else(|| format!("`{s}`: `{v}` is not a size of 1 or more pixels"))
-    };
-    Ok((parse(w)?, parse(h)?))
-}
-
 /// Read another tool's OpenCV FileStorage calibration and write our calibration file.
 #[derive(clap::Args, Debug)]
 #[command(after_help = IMPORT_HELP)]
 pub struct ImportArgs {
-    /// Which tool wrote the file (its key set).
-    #[arg(long, value_enum)]
-    format: Format,
+    /// Which tool wrote the file (its key set): slstudio (Kc kc Kp kp Rp Tp, XML;
+    /// X_p = Rp·X_c + Tp, mm), scan3d-capture (Moreno & Taubin: cam_K cam_kc proj_K proj_kc R T,
+    /// YAML; mm), procam (kamino410's procam-calibration: cam_int cam_dist proj_int proj_dist
+    /// roration translation, XML; in the unit of its chessboard squares).
+    #[arg(long, value_parser = tool_parser())]
+    format: Tool,
     /// The tool's calibration file.
     #[arg(long = "in", value_name = "FILE")]
     input: PathBuf,
@@ -112,11 +71,11 @@ pub struct ImportArgs {
     force: bool,
     /// Camera image size, pixels (required unless the file has it: SLStudio's
     /// frameWidth/frameHeight, procam's img_shape).
-    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = |s: &str| crate::commands::parse_size(s, 1))]
     camera_size: Option<(u32, u32)>,
     /// Projector size, columns x rows (required unless the file has it: SLStudio's
     /// screenResX/screenResY). The columns are the plan's projector columns.
-    #[arg(long, value_name = "COLSxROWS", value_parser = parse_size)]
+    #[arg(long, value_name = "COLSxROWS", value_parser = |s: &str| crate::commands::parse_size(s, 1))]
     projector_size: Option<(u32, u32)>,
     /// Nearest depth of the measurement volume, mm along the camera's z axis.
     #[arg(long, value_name = "MM")]
@@ -125,8 +84,8 @@ pub struct ImportArgs {
     #[arg(long, value_name = "MM")]
     far_mm: Option<f64>,
     /// Unit of the file's translation.
-    #[arg(long, value_enum, default_value = "mm")]
-    unit: Unit,
+    #[arg(long, default_value = "mm", value_parser = unit_parser())]
+    unit: LengthUnit,
 }
 
 /// Write our calibration file as another tool's OpenCV FileStorage file.
@@ -137,8 +96,8 @@ pub struct ExportArgs {
     #[arg(long, value_name = "FILE")]
     calibration: PathBuf,
     /// Which tool's key set to write.
-    #[arg(long, value_enum)]
-    format: Format,
+    #[arg(long, value_parser = tool_parser())]
+    format: Tool,
     /// The file to write (.yml, .yaml or .xml).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
@@ -146,8 +105,8 @@ pub struct ExportArgs {
     #[arg(long)]
     force: bool,
     /// Unit of the written translation.
-    #[arg(long, value_enum, default_value = "mm")]
-    unit: Unit,
+    #[arg(long, default_value = "mm", value_parser = unit_parser())]
+    unit: LengthUnit,
 }
 
 fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
@@ -171,9 +130,9 @@ pub fn import(args: ImportArgs) -> Result<()> {
         projector_size: args.projector_size,
         near_mm: args.near_mm,
         far_mm: args.far_mm,
-        unit: args.unit.length(),
+        unit: args.unit,
     };
-    let tool = args.format.tool();
+    let tool = args.format;
     let imported =
         opencv::read(&args.input, tool, &options).map_err(|e| Error::Usage(e.to_string()))?;
     imported
@@ -216,8 +175,8 @@ pub fn export(args: ExportArgs) -> Result<()> {
     fsm_io::outputs::check_file_target(&args.out, args.force)?;
     let calibration =
         Calibration::read(&args.calibration).map_err(|e| Error::Usage(e.to_string()))?;
-    let tool = args.format.tool();
-    opencv::write(&calibration, tool, &args.out, args.unit.length())
+    let tool = args.format;
+    opencv::write(&calibration, tool, &args.out, args.unit)
         .map_err(|e| Error::Usage(e.to_string()))?;
     if tool == Tool::SlStudio && Syntax::of_path(&args.out) == Some(Syntax::Yaml) {
         eprintln!("note: SLStudio loads only .xml calibration files");
@@ -226,7 +185,7 @@ pub fn export(args: ExportArgs) -> Result<()> {
         "wrote {}: {} calibration (translation in {}) from {}",
         args.out.display(),
         tool,
-        args.unit.length().name(),
+        args.unit.name(),
         args.calibration.display()
     );
     Ok(())

@@ -2,17 +2,13 @@
 
 use std::path::{Path, PathBuf};
 
-use fsm_geometry::file::CalibrationFile;
+use clap::builder::PossibleValuesParser;
+use fsm_calibrate::response::{self, ResponseModel, ResponseReport};
 use fsm_io::image_files::ImageFormat;
-use fsm_io::projector_response::{self, GreyLevelManifest, ProjectorResponse, ResponseEstimate};
-use fsm_io::{outputs, Error, Result};
-use serde::Serialize;
+use fsm_io::projector_response::{self, GreyLevelManifest};
+use fsm_io::{Error, Result};
 
 use crate::commands::BitDepth;
-
-/// Largest RMS fit residual (fraction of full light) at which `--model auto` writes the
-/// power law rather than the measured table.
-pub const AUTO_GAMMA_MAX_RMS: f64 = 0.005;
 
 /// How to measure, shown by `fsm calibrate response --help`.
 const LONG_HELP: &str = "\
@@ -78,8 +74,9 @@ pub struct Args {
     out: Option<PathBuf>,
     /// Which response to write: the power law, the measured table, or (auto) the power law if
     /// its RMS residual is at most 0.5% of full light, the table otherwise.
-    #[arg(long, value_enum, default_value_t = Model::Auto)]
-    model: Model,
+    #[arg(long, default_value = "auto",
+          value_parser = PossibleValuesParser::new(ResponseModel::ALL.map(|(_, n)| n)))]
+    model: String,
     /// Also store the response in this calibration file (its [projector_response] section,
     /// replacing any; the file is rewritten whole).
     #[arg(long, value_name = "FILE")]
@@ -87,29 +84,6 @@ pub struct Args {
     /// Write the report as JSON to this file.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
-}
-
-/// The response written.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Model {
-    /// Power law if it fits within 0.5% of full light, table otherwise.
-    Auto,
-    /// `light = code^gamma`, the best fit.
-    Gamma,
-    /// The measured points, interpolated linearly.
-    Table,
-}
-
-#[derive(Serialize)]
-struct Report<'a> {
-    images: String,
-    bit_depth: u8,
-    /// "gamma" or "table": what was written.
-    model: &'static str,
-    response_file: Option<String>,
-    calibration_file: Option<String>,
-    #[serde(flatten)]
-    estimate: &'a ResponseEstimate,
 }
 
 /// Runs `fsm calibrate response`.
@@ -138,50 +112,30 @@ pub fn run(args: Args) -> Result<()> {
     };
     let estimate =
         projector_response::estimate_from_folder(images, &codes, args.bit_depth.bit_depth)?;
-    let use_gamma = match args.model {
-        Model::Gamma => true,
-        Model::Table => false,
-        Model::Auto => estimate.fit_rms <= AUTO_GAMMA_MAX_RMS,
-    };
-    let response = if use_gamma {
-        estimate.gamma_response()
-    } else {
-        estimate.table_response()
-    };
+    let model = ResponseModel::from_name(&args.model).expect("clap checked the name");
+    let chosen = response::choose(&estimate, model);
     let bits = (estimate.saturation_code as u32 + 1).trailing_zeros() as u8;
     print!("{}", estimate.table(images, bits));
-    let what = match &response {
-        ProjectorResponse::Gamma(g) => format!("gamma {g:.4}"),
-        ProjectorResponse::Table(p) => format!("a table of {} levels", p.len()),
-    };
+    let what = &chosen.what;
     if let Some(out) = &args.out {
-        let comment = format!(
-            "Projector response measured by fsm calibrate response from {} ({} levels):\nbest-fit gamma {:.4}, RMS residual {:.5} of full light (largest {:.5} at level {}).",
-            images.display(),
-            codes.len(),
-            estimate.gamma,
-            estimate.fit_rms,
-            estimate.fit_max,
-            estimate.fit_max_level
-        );
-        response.write(out, &comment)?;
+        let comment = response::file_comment(&estimate, images, codes.len());
+        chosen.response.write(out, &comment)?;
         println!("wrote {} ({what})", out.display());
     }
     if let Some(path) = &args.calibration {
-        store_in_calibration(path, &response)?;
+        response::store_in_calibration(path, &chosen.response)?;
         println!("stored {what} in {}", path.display());
     }
     if let Some(path) = &args.json {
-        let report = Report {
+        let report = ResponseReport {
             images: images.display().to_string(),
             bit_depth: bits,
-            model: if use_gamma { "gamma" } else { "table" },
+            model: if chosen.is_gamma { "gamma" } else { "table" },
             response_file: args.out.as_ref().map(|p| p.display().to_string()),
             calibration_file: args.calibration.as_ref().map(|p| p.display().to_string()),
             estimate: &estimate,
         };
-        let json = serde_json::to_string_pretty(&report).expect("report serialises");
-        outputs::write_file(path, json.as_bytes())?;
+        report.write(path)?;
         println!("wrote {}", path.display());
     }
     Ok(())
@@ -220,27 +174,4 @@ fn write_patterns(args: &Args, out: &Path) -> Result<()> {
         out.display()
     );
     Ok(())
-}
-
-/// Replaces the `[projector_response]` section of the calibration file `path` (rewritten whole
-/// or not at all).
-fn store_in_calibration(path: &Path, response: &ProjectorResponse) -> Result<()> {
-    let mut file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
-    file.projector_response = Some(response.into());
-    file.write(path).map_err(|e| Error::Usage(e.to_string()))
-}
-
-/// The projector response stored in the calibration file `path` (`fsm patterns
-/// --calibration`); an error names the file if it has none.
-pub fn response_from_calibration(path: &Path) -> Result<ProjectorResponse> {
-    let file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
-    let invalid = |message: String| Error::ProjectorResponse {
-        path: path.to_path_buf(),
-        message,
-    };
-    let section = file.projector_response.ok_or_else(|| invalid(format!(
-        "has no [projector_response] section: measure it with `fsm calibrate response --images DIR --calibration {}`",
-        path.display()
-    )))?;
-    section.response().map_err(invalid)
 }

@@ -5,10 +5,10 @@
 use std::path::PathBuf;
 
 use fsm_calibrate::board::Checkerboard;
-use fsm_calibrate::pose_folder::load_pose;
-use fsm_calibrate::{calibrate, corners, report, CalibrationSettings, ColumnMap, PoseObservation};
+use fsm_calibrate::pose_folder::observe_poses;
+use fsm_calibrate::report::write_residual_pictures;
+use fsm_calibrate::{calibrate, CalibrationSettings};
 use fsm_geometry::MeasurementVolume;
-use fsm_io::image_files;
 use fsm_io::outputs::write_file;
 use fsm_io::{Error, Result};
 
@@ -129,47 +129,21 @@ pub fn run(args: Args) -> Result<()> {
         ),
         _ => None,
     };
-    let mut observations = Vec::with_capacity(args.poses.len());
-    let mut whites = Vec::with_capacity(args.poses.len());
-    let mut size: Option<(u32, u32)> = None;
-    for dir in &args.poses {
-        let pose = load_pose(dir, &plan, args.bit_depth, &args.decode.options())?;
-        match size {
-            None => size = Some((pose.width, pose.height)),
-            Some(s) if s != (pose.width, pose.height) => {
-                return Err(Error::Usage(format!(
-                    "{}: images are {}x{}, the first pose's are {}x{}",
-                    dir.display(),
-                    pose.width,
-                    pose.height,
-                    s.0,
-                    s.1
-                )))
-            }
-            Some(_) => {}
-        }
-        let (w, h) = (pose.width as usize, pose.height as usize);
-        let corners = corners::detect(&pose.white, w, h, &board)
-            .map_err(|e| Error::Usage(format!("{}: corners: {e}", dir.display())))?;
-        let lit = pose.columns.iter().filter(|c| c.is_finite()).count();
-        eprintln!(
-            "{}: {} corners, {:.1}% of pixels decoded",
-            dir.display(),
-            corners.len(),
-            100.0 * lit as f64 / (w * h).max(1) as f64
-        );
-        observations.push(PoseObservation {
-            label: dir.display().to_string(),
-            corners_px: corners,
-            columns: ColumnMap {
-                width: w,
-                height: h,
-                columns: pose.columns,
-            },
-        });
-        whites.push(pose.white);
-    }
-    let (w, h) = size.expect("at least 3 poses");
+    let poses = observe_poses(
+        &args.poses,
+        &plan,
+        args.bit_depth,
+        &args.decode.options(),
+        &board,
+        |dir, corners, decoded| {
+            eprintln!(
+                "{}: {corners} corners, {:.1}% of pixels decoded",
+                dir.display(),
+                100.0 * decoded
+            )
+        },
+    )?;
+    let (w, h) = (poses.width, poses.height);
     let mut settings =
         CalibrationSettings::new(w, h, plan.projector_columns as u32, args.projector_rows);
     settings.projector_cy_px = args.projector_cy;
@@ -181,7 +155,7 @@ pub fn run(args: Args) -> Result<()> {
         settings.dense = None;
     }
     settings.local.half_window_px = args.window;
-    let (calibration, report) = calibrate(&board.corners_mm(), &observations, &settings)
+    let (calibration, report) = calibrate(&board.corners_mm(), &poses.observations, &settings)
         .map_err(|e| Error::Usage(format!("calibration failed: {e}")))?;
 
     print!("{}", report.table());
@@ -192,20 +166,9 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     if let Some(dir) = &args.residuals {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        for (i, (pose, white)) in report.poses.iter().zip(&whites).enumerate() {
-            let path = dir.join(format!("pose{i:02}.png"));
-            let rgb = report::residual_picture(pose, white, w as usize, h as usize);
-            let mut bytes = Vec::new();
-            image_files::write_png_rgb8(&mut bytes, w, h, &rgb)
-                .map_err(|e| Error::Usage(format!("{}: {}", path.display(), e.0)))?;
-            write_file(&path, &bytes)?;
-        }
-        eprintln!(
-            "wrote {} residual pictures to {}",
-            report.poses.len(),
-            dir.display()
-        );
+        write_residual_pictures(dir, &report, &poses.whites, (w, h))?;
+        let count = report.poses.len();
+        eprintln!("wrote {count} residual pictures to {}", dir.display());
     }
     Ok(())
 }

@@ -1,0 +1,137 @@
+//! The projector's intensity response as a calibration (`fsm calibrate response`): which model
+//! to keep from an estimate (`fsm_io::projector_response`, where it is measured), the report,
+//! and the `[projector_response]` section of a calibration file.
+
+use std::path::Path;
+
+use fsm_geometry::file::CalibrationFile;
+use fsm_io::projector_response::{ProjectorResponse, ResponseEstimate};
+use fsm_io::{Error, Result};
+use serde::Serialize;
+
+/// Largest RMS fit residual (fraction of full light) at which [`ResponseModel::Auto`] keeps
+/// the power law rather than the measured table.
+pub const AUTO_GAMMA_MAX_RMS: f64 = 0.005;
+
+/// Which response to keep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResponseModel {
+    /// The power law if it fits within [`AUTO_GAMMA_MAX_RMS`], the table otherwise.
+    Auto,
+    /// `light = code^gamma`, the best fit.
+    Gamma,
+    /// The measured points, interpolated linearly.
+    Table,
+}
+
+impl ResponseModel {
+    /// Every model, with its command-line name.
+    pub const ALL: [(ResponseModel, &'static str); 3] = [
+        (ResponseModel::Auto, "auto"),
+        (ResponseModel::Gamma, "gamma"),
+        (ResponseModel::Table, "table"),
+    ];
+
+    /// The model called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().find(|(_, n)| *n == name).map(|(m, _)| *m)
+    }
+}
+
+/// The response kept from an estimate, and what it is in words.
+pub struct ChosenResponse {
+    /// The response.
+    pub response: ProjectorResponse,
+    /// `gamma 2.2000` or `a table of 17 levels`.
+    pub what: String,
+    /// Whether it is the power law.
+    pub is_gamma: bool,
+}
+
+/// The response `model` keeps of `estimate`.
+pub fn choose(estimate: &ResponseEstimate, model: ResponseModel) -> ChosenResponse {
+    let is_gamma = match model {
+        ResponseModel::Gamma => true,
+        ResponseModel::Table => false,
+        ResponseModel::Auto => estimate.fit_rms <= AUTO_GAMMA_MAX_RMS,
+    };
+    let response = if is_gamma {
+        estimate.gamma_response()
+    } else {
+        estimate.table_response()
+    };
+    let what = match &response {
+        ProjectorResponse::Gamma(g) => format!("gamma {g:.4}"),
+        ProjectorResponse::Table(p) => format!("a table of {} levels", p.len()),
+    };
+    ChosenResponse {
+        response,
+        what,
+        is_gamma,
+    }
+}
+
+/// The response file's comment: where it was measured and how well the power law fits.
+pub fn file_comment(estimate: &ResponseEstimate, images: &Path, levels: usize) -> String {
+    format!(
+        "Projector response measured by fsm calibrate response from {} ({levels} levels):\n\
+         best-fit gamma {:.4}, RMS residual {:.5} of full light (largest {:.5} at level {}).",
+        images.display(),
+        estimate.gamma,
+        estimate.fit_rms,
+        estimate.fit_max,
+        estimate.fit_max_level
+    )
+}
+
+/// The JSON report of `fsm calibrate response --json`.
+#[derive(Serialize)]
+pub struct ResponseReport<'a> {
+    /// The captures' folder.
+    pub images: String,
+    /// The sensor's bit depth the captures were read with.
+    pub bit_depth: u8,
+    /// "gamma" or "table": what was written.
+    pub model: &'static str,
+    /// The response file written, if any.
+    pub response_file: Option<String>,
+    /// The calibration file the response was stored in, if any.
+    pub calibration_file: Option<String>,
+    /// The estimate.
+    #[serde(flatten)]
+    pub estimate: &'a ResponseEstimate,
+}
+
+impl ResponseReport<'_> {
+    /// Writes the report to `path` as JSON, whole or not at all.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let json = serde_json::to_string_pretty(self).expect("the report serialises");
+        fsm_io::outputs::write_file(path, json.as_bytes())
+    }
+}
+
+/// Replaces the `[projector_response]` section of the calibration file `path` (rewritten whole
+/// or not at all).
+pub fn store_in_calibration(path: &Path, response: &ProjectorResponse) -> Result<()> {
+    let mut file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
+    file.projector_response = Some(response.into());
+    file.write(path).map_err(|e| Error::Usage(e.to_string()))
+}
+
+/// The projector response stored in the calibration file `path` (`fsm patterns
+/// --calibration`); an error names the file if it has none.
+pub fn response_from_calibration(path: &Path) -> Result<ProjectorResponse> {
+    let file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
+    let invalid = |message: String| Error::ProjectorResponse {
+        path: path.to_path_buf(),
+        message,
+    };
+    let section = file.projector_response.ok_or_else(|| {
+        invalid(format!(
+            "has no [projector_response] section: measure it with `fsm calibrate response \
+             --images DIR --calibration {}`",
+            path.display()
+        ))
+    })?;
+    section.response().map_err(invalid)
+}
