@@ -35,7 +35,7 @@ impl ScanCandidates {
     pub fn decode(
         plan: MethodPlan,
         capture: &Capture,
-        calibration: &CalibrationFile,
+        calibration: &ScanCalibration,
         options: &DecodeOptions,
         progress: &Progress,
     ) -> Result<Self> {
@@ -59,7 +59,7 @@ impl ScanCandidates {
         plan: &MethodPlan,
         path: &Path,
         bit_depth: Option<u8>,
-        calibration: &CalibrationFile,
+        calibration: &ScanCalibration,
     ) -> Result<Self> {
         let started = Instant::now();
         let bit_depth = match bit_depth {
@@ -88,15 +88,15 @@ impl ScanCandidates {
     }
 }
 
-/// A calibration and the file it came from, for the checks that name it.
-pub struct CalibrationFile {
+/// The calibration a scan uses and the file it came from, for the checks that name the file.
+pub struct ScanCalibration {
     /// The file.
     pub path: std::path::PathBuf,
     /// Its calibration.
     pub calibration: Calibration,
 }
 
-impl CalibrationFile {
+impl ScanCalibration {
     /// Reads the calibration file `path` and checks that its projector is the one `plan`
     /// (read from `plan_path`) addresses.
     pub fn read_for(path: &Path, plan: &MethodPlan, plan_path: &Path) -> Result<Self> {
@@ -110,7 +110,7 @@ impl CalibrationFile {
                 plan_path.display(),
             )));
         }
-        Ok(CalibrationFile {
+        Ok(ScanCalibration {
             path: path.to_path_buf(),
             calibration,
         })

@@ -7,7 +7,7 @@ use fsm_geometry::Calibration;
 use fsm_io::outputs::StagedDir;
 use fsm_io::progress::Progress;
 use fsm_io::Result;
-use fsm_scan::pipeline::{scan_into, CalibrationFile, ScanCandidates, Truth};
+use fsm_scan::pipeline::{scan_into, ScanCalibration, ScanCandidates, Truth};
 use fsm_scan::{Paths, SelectionParams};
 
 use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
@@ -141,7 +141,7 @@ fn parse_paths(s: &str) -> std::result::Result<u8, String> {
 
 pub fn run(args: Args) -> Result<()> {
     let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
-    let calibration = CalibrationFile::read_for(&args.calibration, &plan, &args.plan)?;
+    let calibration = ScanCalibration::read_for(&args.calibration, &plan, &args.plan)?;
     let camera = &calibration.calibration.camera;
     // Read before any work: a bad truth folder fails fast.
     let truth = match &args.truth {
