@@ -148,6 +148,108 @@ fi
 kill "$uart_qemu" 2>/dev/null || true
 wait "$uart_qemu" 2>/dev/null || true
 
+# 2e. The same over Ethernet (run-qemu.sh --serve-net: GEM0 on QEMU's user networking,
+#     127.0.0.1:PORT forwarded to the firmware's 10.0.2.15:7070, smoltcp's TCP): `fsm camera info`,
+#     `fsm camera scan` of the simulator's plane_mirror dumps (BFSM and two-group EFSM, 32 rows x
+#     48 pixels) compared with the host's decode; then hosts that misbehave (garbage, a reset
+#     mid-frame) and a whole scan again, which must still be byte-identical.
+net_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+"$S/run-qemu.sh" --serve-net "$net_port" "$ELF" >net-console.txt 2>net-qemu.txt &
+net_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
+for _ in $(seq 150); do
+    grep -q '^SERVE NET' net-console.txt && break
+    sleep 0.2
+done
+net_dev="tcp://127.0.0.1:$net_port"
+net_up=0
+grep -q '^SERVE NET 10.0.2.15:7070 ' net-console.txt && net_up=1
+# net_scan PRESET NAME: `fsm camera scan` of sim-PRESET over Ethernet into NAME.cand, compared with
+# the host's decode (32 rows); prints the time and the rate. Fails if anything differs.
+net_scan() {
+    local t0 t1 bytes
+    t0=$(date +%s.%N)
+    "$FSM" camera scan --plan "sim-$1/plan.toml" --dump "sim-$1/scan.dump" --device "$net_dev" \
+        --out "$2.cand" --timeout 60 >"$2-scan.txt" 2>&1 || { cat "$2-scan.txt"; return 1; }
+    t1=$(date +%s.%N)
+    "$TOOL" decode --plan "sim-$1/plan.bin" --dump "sim-$1/scan.dump" --out "$2-host.cand" >/dev/null \
+        && "$TOOL" compare "$2-host.cand" "$2.cand" --min-rows 32 >"$2-compare.txt" \
+        || { cat "$2-compare.txt" 2>/dev/null; return 1; }
+    bytes=$(stat -c %s "sim-$1/scan.dump")
+    awk -v a="$t0" -v b="$t1" -v n="$bytes" -v p="$1" \
+        'BEGIN { printf "%s: 32 rows, %d bytes of rows in %.2f s: %.1f rows/s, %.0f kB/s\n", p, n, b - a, 32 / (b - a), n / 1000 / (b - a) }'
+}
+if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] \
+    && "$FSM" camera info --device "$net_dev" >net-info.txt 2>&1 \
+    && grep -q '^max pixels per row *2048' net-info.txt; then
+    ok "fsm camera info over the firmware's Ethernet (QEMU GEM0, smoltcp, $net_dev): $(head -n1 net-console.txt | cut -c1-60)"
+else
+    cat net-console.txt net-qemu.txt net-info.txt 2>/dev/null || true
+    bad "fsm camera info over the firmware's Ethernet"
+fi
+for p in paper-bfsm paper-efsm-2; do
+    if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && net_scan "$p" "net-$p" >"net-$p.rate"; then
+        cat "net-$p.rate"
+        ok "fsm camera scan over Ethernet, $p (32 rows x 48 pixels): candidates bit-identical"
+    else
+        cat "net-$p.rate" 2>/dev/null || true
+        bad "fsm camera scan over Ethernet, $p"
+    fi
+done
+# A host that sends garbage gets an error frame (version 1, Response::Error = tag 6); one that
+# sends half a frame and resets the connection (SO_LINGER 0) gets nothing; neither stops the
+# server: the next scan is whole and byte-identical.
+cat >net-bad.py <<'EOF'
+import socket, struct, sys, time
+port = int(sys.argv[2])
+def cobs_decode(b):
+    out, i = bytearray(), 0
+    while i < len(b):
+        code = b[i]
+        out += b[i + 1:i + code]
+        i += code
+        if code < 0xFF and i < len(b):
+            out.append(0)
+    return bytes(out)
+s = socket.create_connection(("127.0.0.1", port), timeout=10)
+if sys.argv[1] == "garbage":
+    s.sendall(b"\x00" + bytes(range(1, 256)) * 4 + b"\x00")
+    reply = b""
+    while reply.count(b"\x00") < 2:
+        d = s.recv(4096)
+        if not d:
+            break
+        reply += d
+    frame = cobs_decode(reply.strip(b"\x00").split(b"\x00")[0])
+    s.close()
+    if len(frame) >= 2 and frame[0] == 1 and frame[1] == 6:
+        print("garbage answered with an error frame (%d bytes)" % len(reply))
+    else:
+        sys.exit("garbage: unexpected reply %r" % reply[:64])
+else:
+    s.sendall(b"\x00" + bytes(range(1, 256)) * 40)   # 10 kB of a frame that never ends
+    time.sleep(0.3)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    s.close()
+    print("connection reset mid-frame")
+EOF
+for what in garbage reset; do
+    if [ "$net_up" = 1 ] && python3 net-bad.py "$what" "$net_port" >"net-$what.txt" 2>&1; then
+        ok "over Ethernet, $(cat "net-$what.txt")"
+    else
+        cat "net-$what.txt" 2>/dev/null || true
+        bad "over Ethernet, bad input: $what"
+    fi
+done
+if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && net_scan paper-efsm-2 net-again >net-again.rate; then
+    cat net-again.rate
+    ok "fsm camera scan over Ethernet after garbage and a reset: candidates bit-identical"
+else
+    cat net-again.rate net-console.txt net-qemu.txt 2>/dev/null || true
+    bad "fsm camera scan over Ethernet after garbage and a reset"
+fi
+kill "$net_qemu" 2>/dev/null || true
+wait "$net_qemu" 2>/dev/null || true
+
 # 3. Bad input: a dump of another plan, a truncated dump. Refused with a message naming what is
 #    wrong, exit code 3, and no candidate file left behind.
 "$TOOL" scene --plan efsm1 --width 16 --rows 4 --dump small.dump --plan-out small.plan >/dev/null

@@ -19,6 +19,13 @@
 #                    One host at a time; the next connects when it leaves. No input file,
 #                    --plan or --selftest. No time-out unless --timeout is given; without
 #                    one QEMU replaces this script (exec): killing its PID stops QEMU.
+#   --serve-net PORT serve the host protocol over Ethernet for ever (descriptor {"NET ", 0, ...}
+#                    at 0x03FFFFC0: GEM0, TCP/IP at 10.0.2.15/24, port 7070): QEMU's GEM model
+#                    on user networking (`-nic user,model=cadence_gem,restrict=on,hostfwd=...`)
+#                    forwards 127.0.0.1:PORT to 10.0.2.15:7070, where
+#                    `fsm camera info --device tcp://127.0.0.1:PORT` talks to the firmware.
+#                    restrict=on: the guest reaches nothing but QEMU's own slirp. Same rules
+#                    as --serve-uart (no input, exec, no time-out unless --timeout).
 #   --uart N         with --serve-uart: UART0 (QEMU's first -serial, 0xE0000000) or UART1
 #                    (the second, 0xE0001000; the ZedBoard's USB-UART). Default 1.
 #
@@ -28,7 +35,7 @@
 # messages to stderr. Semihosting file paths (fw-candidates.bin, defmt.bin) are relative to the
 # current directory.
 # Exit status: QEMU's, i.e. the firmware's semihosting exit code (0 = success, 101 = panic,
-# 102 = CPU exception), 124 on timeout. With --serve-uart the firmware never exits: QEMU runs
+# 102 = CPU exception), 124 on timeout. With --serve-uart or --serve-net the firmware never exits: QEMU runs
 # until it is killed.
 set -euo pipefail
 
@@ -40,10 +47,11 @@ SELFTEST=""
 TRACE=""
 PLAN=""
 SERVE_PORT=""
+NET_PORT=""
 UART_INDEX=1
 TIMEOUT_GIVEN=0
 
-usage() { sed -n '2,33p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,39p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -52,6 +60,7 @@ while [ $# -gt 0 ]; do
         --selftest) [ $# -ge 2 ] || usage; SELFTEST="$2"; shift ;;
         --timeout) [ $# -ge 2 ] || usage; TIMEOUT="$2"; TIMEOUT_GIVEN=1; shift ;;
         --serve-uart) [ $# -ge 2 ] || usage; SERVE_PORT="$2"; shift ;;
+        --serve-net) [ $# -ge 2 ] || usage; NET_PORT="$2"; shift ;;
         --uart) [ $# -ge 2 ] || usage; UART_INDEX="$2"; shift ;;
         --trace) [ $# -ge 2 ] || usage; TRACE="$2"; shift ;;
         -h|--help) usage ;;
@@ -75,12 +84,16 @@ ICOUNT_DESC=0x03ffffe8
 SELFTEST_DESC=0x03ffffe0
 PLAN_DESC=0x03ffff00
 UART_DESC=0x03ffffd8
+NET_DESC=0x03ffffc0
 PLAN_BYTES=0x03ffff08
 MAGIC_FSMI=0x494d5346   # "FSMI"
 MAGIC_ICNT=0x544e4349   # "ICNT"
 MAGIC_TEST=0x54534554   # "TEST"
 MAGIC_PLAN=0x4e414c50   # "PLAN"
 MAGIC_UART=0x54524155   # "UART"
+MAGIC_NET=0x2054454e    # "NET "
+NET_GUEST=10.0.2.15     # layout::NetConfig::DEFAULT
+NET_GUEST_PORT=7070     # fsm_protocol::DEFAULT_TCP_PORT
 
 word() { # addr value: one little-endian u32 written by QEMU's generic loader
     printf -- '-device\nloader,addr=%s,data=%s,data-len=4\n' "$1" "$2"
@@ -101,13 +114,29 @@ if [ -n "$SERVE_PORT" ]; then
     esac
 fi
 
+nic=()
+if [ -n "$NET_PORT" ]; then
+    case "$NET_PORT" in ''|*[!0-9]*) echo "run-qemu: --serve-net PORT must be a number" >&2; exit 2 ;; esac
+    [ "$NET_PORT" -ge 1 ] && [ "$NET_PORT" -le 65535 ] || { echo "run-qemu: port $NET_PORT is not 1..65535" >&2; exit 2; }
+    [ -z "$INPUT" ] && [ -z "$PLAN" ] && [ -z "$SELFTEST" ] && [ -z "$SERVE_PORT" ] \
+        || { echo "run-qemu: --serve-net takes no input file, --plan, --selftest or --serve-uart" >&2; exit 2; }
+    # The first -nic is GEM0 (0xE000B000, QEMU's xilinx_zynq.c).
+    nic=(-nic "user,model=cadence_gem,restrict=on,hostfwd=tcp:127.0.0.1:$NET_PORT-$NET_GUEST:$NET_GUEST_PORT")
+fi
+
 # `-semihosting` alone would print the firmware's console output on QEMU's stderr (QEMU 7.2);
 # routing it through a stdio chardev puts it on stdout, leaving stderr to QEMU and this script.
-args=(-M xilinx-zynq-a9 -nographic -monitor none "${serial[@]}"
+args=(-M xilinx-zynq-a9 -nographic -monitor none "${serial[@]}" "${nic[@]}"
       -chardev stdio,id=semihost -semihosting-config enable=on,target=native,chardev=semihost)
 
 if [ -n "$SERVE_PORT" ]; then
     mapfile -t -O "${#args[@]}" args < <(word "$UART_DESC" "$MAGIC_UART"; word "$((0x03ffffdc))" "$UART_INDEX")
+fi
+
+if [ -n "$NET_PORT" ]; then
+    # {"NET ", port 0 (default), address 0 (default 10.0.2.15/24 via 10.0.2.2), 0, 0}
+    mapfile -t -O "${#args[@]}" args < <(word "$NET_DESC" "$MAGIC_NET"; word "$((0x03ffffc4))" 0;
+        word "$((0x03ffffc8))" 0; word "$((0x03ffffcc))" 0; word "$((0x03ffffd0))" 0)
 fi
 
 if [ -n "$INPUT" ]; then
@@ -152,6 +181,10 @@ args+=(-kernel "$ELF")
 
 if [ -n "$SERVE_PORT" ] && [ "$TIMEOUT_GIVEN" = 0 ]; then
     echo "run-qemu: serving on UART$UART_INDEX at tcp://127.0.0.1:$SERVE_PORT" >&2
+    exec "$QEMU" "${args[@]}" </dev/null
+fi
+if [ -n "$NET_PORT" ] && [ "$TIMEOUT_GIVEN" = 0 ]; then
+    echo "run-qemu: serving over Ethernet (GEM0) at tcp://127.0.0.1:$NET_PORT -> $NET_GUEST:$NET_GUEST_PORT" >&2
     exec "$QEMU" "${args[@]}" </dev/null
 fi
 

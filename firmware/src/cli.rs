@@ -342,7 +342,8 @@ fn run(args: &[String]) -> Result<(), Failure> {
         }
         "serve" => {
             o.only(&["listen", "frame-timeout", "idle-timeout", "hand-over"], 0)?;
-            let addr = o.get("listen").unwrap_or("127.0.0.1:7070");
+            let default_addr = format!("127.0.0.1:{}", fsm_protocol::DEFAULT_TCP_PORT);
+            let addr = o.get("listen").unwrap_or(&default_addr);
             let mut timeouts = emulator::Timeouts::default();
             if let Some(s) = o.seconds("frame-timeout")? {
                 timeouts.frame = s;

@@ -111,9 +111,99 @@ pub fn uart() -> Option<u8> {
     uart_from_descriptor(magic, index)
 }
 
+/// Where the Ethernet controller's DMA descriptor rings and buffers live (`arm/gem.rs`): the
+/// start of the mailbox MiB, which the MMU maps Normal non-cacheable (`arm/cpu.rs`) because
+/// the GEM's DMA does not see the CPU's data cache. Nothing else uses these 512 KiB (QEMU's
+/// loader writes only the descriptors at the top of the MiB).
+pub const GEM_DMA_BASE: usize = 0x03F0_0000;
+/// Its length.
+pub const GEM_DMA_LEN: usize = 0x0008_0000;
+const _: () = assert!(
+    GEM_DMA_BASE == RAM_END
+        && GEM_DMA_BASE % 0x10_0000 == 0
+        && GEM_DMA_BASE + GEM_DMA_LEN <= NET_DESC_ADDR
+);
+
+/// Address of the Ethernet descriptor, five `u32`s: magic [`NET_MAGIC`] ("NET "), the TCP port
+/// (0: [`fsm_protocol::DEFAULT_TCP_PORT`]), the IPv4 address as `a << 24 | b << 16 | c << 8 | d`
+/// (0: [`NetConfig::DEFAULT`]'s, with its prefix and gateway), the prefix length (0: 24), the
+/// gateway in the same form (0: none, or the default's with the default address). Written by
+/// `scripts/run-qemu.sh --serve-net PORT`: the firmware then serves the protocol over GEM0 and
+/// TCP, connection after connection, and makes no semihosting call after its `SERVE NET` line.
+pub const NET_DESC_ADDR: usize = 0x03FF_FFC0;
+/// "NET " as a little-endian `u32`.
+pub const NET_MAGIC: u32 = u32::from_le_bytes(*b"NET ");
+
+/// Where and how the camera serves over Ethernet.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NetConfig {
+    /// TCP port of the protocol's listener.
+    pub port: u16,
+    /// Our IPv4 address.
+    pub address: [u8; 4],
+    /// The subnet's prefix length.
+    pub prefix_len: u8,
+    /// The default route, if any.
+    pub gateway: Option<[u8; 4]>,
+}
+
+impl NetConfig {
+    /// QEMU user networking's guest address, 10.0.2.15/24 with the gateway 10.0.2.2 (QEMU's
+    /// slirp; `hostfwd` connections arrive from it), on the protocol's port. A board on
+    /// another network gets its address from the descriptor (or a build with other defaults).
+    pub const DEFAULT: NetConfig = NetConfig {
+        port: fsm_protocol::DEFAULT_TCP_PORT,
+        address: [10, 0, 2, 15],
+        prefix_len: 24,
+        gateway: Some([10, 0, 2, 2]),
+    };
+}
+
+/// The configuration from a descriptor's five words, if the magic matches and the values are
+/// valid (a port up to 65535, a prefix up to 32, an address that is no broadcast address).
+pub fn net_from_descriptor(words: [u32; 5]) -> Option<NetConfig> {
+    let [magic, port, address, prefix, gateway] = words;
+    if magic != NET_MAGIC || port > 0xFFFF || prefix > 32 {
+        return None;
+    }
+    let port = if port == 0 {
+        NetConfig::DEFAULT.port
+    } else {
+        port as u16
+    };
+    if address == 0 {
+        return Some(NetConfig {
+            port,
+            ..NetConfig::DEFAULT
+        });
+    }
+    if address == u32::MAX {
+        return None;
+    }
+    Some(NetConfig {
+        port,
+        address: address.to_be_bytes(),
+        prefix_len: if prefix == 0 { 24 } else { prefix as u8 },
+        gateway: (gateway != 0).then(|| gateway.to_be_bytes()),
+    })
+}
+
+/// The Ethernet configuration, if a valid descriptor is present.
+#[cfg(target_os = "none")]
+pub fn net() -> Option<NetConfig> {
+    let d = NET_DESC_ADDR as *const u32;
+    let mut words = [0u32; 5];
+    for (i, w) in words.iter_mut().enumerate() {
+        // SAFETY: fixed mailbox address in DDR outside the image (see link.x).
+        *w = unsafe { d.add(i).read_volatile() };
+    }
+    net_from_descriptor(words)
+}
+
 const _: () = assert!(
     RAM_END <= PLAN_DESC_ADDR
-        && PLAN_BYTES_ADDR + fsm_core::wire::plan::PLAN_LEN <= UART_DESC_ADDR
+        && PLAN_BYTES_ADDR + fsm_core::wire::plan::PLAN_LEN <= NET_DESC_ADDR
+        && NET_DESC_ADDR + 20 <= UART_DESC_ADDR
         && UART_DESC_ADDR + 8 <= SELFTEST_DESC_ADDR
 );
 const _: () = assert!(
@@ -161,6 +251,40 @@ mod tests {
         assert_eq!(uart_from_descriptor(UART_MAGIC, 1), Some(1));
         assert_eq!(uart_from_descriptor(UART_MAGIC, 2), None);
         assert_eq!(uart_from_descriptor(PLAN_MAGIC, 1), None);
+    }
+
+    #[test]
+    fn net_descriptor() {
+        assert_eq!(NET_MAGIC, 0x2054_454E);
+        assert_eq!(
+            net_from_descriptor([NET_MAGIC, 0, 0, 0, 0]),
+            Some(NetConfig::DEFAULT)
+        );
+        assert_eq!(NetConfig::DEFAULT.port, 7070);
+        let c = net_from_descriptor([NET_MAGIC, 8080, 0, 0, 0]).unwrap();
+        assert_eq!(
+            (c.port, c.address, c.gateway),
+            (8080, [10, 0, 2, 15], Some([10, 0, 2, 2]))
+        );
+        let c = net_from_descriptor([NET_MAGIC, 0, 0xC0A8_010A, 16, 0xC0A8_0101]).unwrap();
+        assert_eq!(
+            c,
+            NetConfig {
+                port: 7070,
+                address: [192, 168, 1, 10],
+                prefix_len: 16,
+                gateway: Some([192, 168, 1, 1])
+            }
+        );
+        let c = net_from_descriptor([NET_MAGIC, 0, 0xC0A8_010A, 0, 0]).unwrap();
+        assert_eq!((c.prefix_len, c.gateway), (24, None));
+        assert_eq!(net_from_descriptor([UART_MAGIC, 0, 0, 0, 0]), None);
+        assert_eq!(net_from_descriptor([NET_MAGIC, 65536, 0, 0, 0]), None);
+        assert_eq!(
+            net_from_descriptor([NET_MAGIC, 0, 0xC0A8_010A, 33, 0]),
+            None
+        );
+        assert_eq!(net_from_descriptor([NET_MAGIC, 0, u32::MAX, 0, 0]), None);
     }
 
     #[test]

@@ -10,7 +10,10 @@
 //! - no input: print the limits and exit 0;
 //! - a UART descriptor (`run-qemu.sh --serve-uart PORT`): print `SERVE UART<n> ...` once the
 //!   UART receives, then serve the protocol on it, session after session, for ever, without
-//!   another semihosting call (see `serve_uart`).
+//!   another semihosting call (see `serve_uart`);
+//! - an Ethernet descriptor (`run-qemu.sh --serve-net PORT`): bring up GEM0 and TCP/IP, print
+//!   `SERVE NET <address>:<port> ...` once listening, then serve the protocol over TCP,
+//!   connection after connection, for ever, without another semihosting call (`serve_net`).
 //!
 //! Output files are written under a `.part` name and renamed when whole.
 //!
@@ -25,6 +28,8 @@ mod fw {
     use fsm_core::{Method, ScanPlan};
     use fsm_firmware::arm::cpu::global_timer_ticks;
     use fsm_firmware::arm::cpu::QEMU_NS_PER_GTIMER_TICK;
+    use fsm_firmware::arm::gem::{Gem, GemConfig};
+    use fsm_firmware::arm::net::{Net, NetTimeouts};
     use fsm_firmware::arm::semihosting::{self, exit, File, Mode};
     use fsm_firmware::arm::uart::{Port, Uart, BAUD};
     use fsm_firmware::batch::{self, BatchMemory, Sink};
@@ -59,6 +64,110 @@ mod fw {
         loop {
             // A UART never closes: `serve` returns on a frame time-out only.
             let _ = device.serve(&mut uart);
+        }
+    }
+
+    /// GEM0's MAC address: locally administered (bit 1 of the first byte set), unicast, "FSM" in
+    /// its middle. A board on a shared network needs one of its own (ZedBoard: from its
+    /// EEPROM or a Xilinx-assigned range); QEMU's slirp takes any.
+    const MAC: [u8; 6] = [0x02, 0x46, 0x53, 0x4D, 0x00, 0x01];
+    /// The PHY's MDIO address tried first: the ZedBoard's 88E1518 strap (QEMU's model answers
+    /// at its own address, found by the scan).
+    const PHY_ADDRESS: u8 = 0;
+    /// How long start-up waits for the PHY's link: 5 s at QEMU's timer rate (1.5 s on a board:
+    /// an 88E1518's auto-negotiation takes about 3 s after its reset, but the FSBL started it
+    /// long before; a link that comes later still works, only its speed is not read again).
+    const LINK_TIMEOUT_TICKS: u64 = 5_000_000_000 / QEMU_NS_PER_GTIMER_TICK;
+    /// Silence inside a frame (or a host that takes no answer bytes) after which a TCP session
+    /// ends: 5 s, the emulator's default `--frame-timeout`.
+    const NET_FRAME_TIMEOUT_TICKS: u64 = 5_000_000_000 / QEMU_NS_PER_GTIMER_TICK;
+    /// Silence between frames after which a TCP session ends: 120 s, the emulator's default
+    /// `--idle-timeout` (a UART waits for ever; a TCP host that vanished without a word would
+    /// otherwise hold the camera's only connection).
+    const NET_IDLE_TIMEOUT_TICKS: u64 = 120_000_000_000 / QEMU_NS_PER_GTIMER_TICK;
+
+    /// Silence between frames after which a TCP session ends when another host is waiting:
+    /// 1 s, the emulator's default `--hand-over`.
+    const NET_HAND_OVER_TICKS: u64 = 1_000_000_000 / QEMU_NS_PER_GTIMER_TICK;
+
+    /// Serves the protocol over TCP for ever: one connection at a time, each a session; the
+    /// plan stays loaded from one to the next. A closed or reset connection, a time-out or
+    /// garbage ends a session, never the server. No semihosting call (see `serve_uart`).
+    fn serve_net(mut net: Net, storage: &'static mut Storage) -> ! {
+        let mut device = Device::new(storage.memory());
+        loop {
+            net.accept();
+            let _ = device.serve(&mut net);
+            net.disconnect();
+        }
+    }
+
+    /// Brings up GEM0 and the TCP listener for `config`, prints the `SERVE NET` line, serves.
+    fn start_net(config: layout::NetConfig, storage: &'static mut Storage) -> ! {
+        let Some(gem) = Gem::new(GemConfig {
+            mac: MAC,
+            phy_address: PHY_ADDRESS,
+            link_timeout_ticks: LINK_TIMEOUT_TICKS,
+        }) else {
+            panic!("GEM0 taken twice")
+        };
+        let timeouts = NetTimeouts {
+            frame_ticks: NET_FRAME_TIMEOUT_TICKS,
+            idle_ticks: Some(NET_IDLE_TIMEOUT_TICKS),
+            hand_over_ticks: NET_HAND_OVER_TICKS,
+        };
+        let (phy, link) = (gem.phy(), gem.link());
+        let Some(net) = Net::new(gem, MAC, config, timeouts) else {
+            panic!("TCP buffers taken twice")
+        };
+        let [a, b, c, d] = config.address;
+        let m = MAC;
+        hprintln!(
+            "SERVE NET {}.{}.{}.{}:{} (/{}, MAC {:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}, {}): the host protocol over TCP, connection after connection",
+            a,
+            b,
+            c,
+            d,
+            config.port,
+            config.prefix_len,
+            m[0],
+            m[1],
+            m[2],
+            m[3],
+            m[4],
+            m[5],
+            LinkText(phy, link)
+        );
+        serve_net(net, storage)
+    }
+
+    /// The PHY and its link for the `SERVE NET` line.
+    struct LinkText(
+        Option<fsm_firmware::arm::gem::Phy>,
+        fsm_firmware::arm::gem::LinkState,
+    );
+
+    impl fmt::Display for LinkText {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            let Some(phy) = self.0 else {
+                return write!(f, "no PHY answers on MDIO");
+            };
+            let l = self.1;
+            write!(f, "PHY {:#010x} at MDIO {}, link ", phy.id, phy.address)?;
+            if l.up {
+                write!(
+                    f,
+                    "up, {} Mb/s {} duplex",
+                    l.speed.mbps(),
+                    if l.full_duplex { "full" } else { "half" }
+                )
+            } else {
+                write!(
+                    f,
+                    "down after {} ms (serving anyway)",
+                    l.waited_ticks * QEMU_NS_PER_GTIMER_TICK / 1_000_000
+                )
+            }
         }
     }
 
@@ -379,6 +488,10 @@ mod fw {
         // descriptor comes from QEMU's loader, so a semihosting host is there to print that
         // the UART is ready: a host that sends before RX is enabled loses its bytes (UG585;
         // QEMU's model drops them too). A board booting into `serve_uart` would skip the line.
+        // The same for Ethernet: the line comes once the socket listens.
+        if let Some(config) = layout::net() {
+            start_net(config, storage)
+        }
         if let Some((index, port)) = layout::uart().and_then(|i| Some((i, Port::from_index(i)?))) {
             let uart = Uart::new(port, UART_FRAME_TIMEOUT_TICKS);
             hprintln!(

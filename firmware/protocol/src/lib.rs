@@ -116,3 +116,7 @@ pub use message::{
 
 /// Version of this protocol, the first byte of every frame.
 pub const PROTOCOL_VERSION: u8 = 1;
+
+/// The TCP port a camera serves the protocol on: the emulator's default (`fsm-firmware serve`)
+/// and the firmware's over Ethernet. The one place this number is defined.
+pub const DEFAULT_TCP_PORT: u16 = 7070;

@@ -92,6 +92,9 @@ const XN: u32 = 1 << 4;
 /// Normal memory, outer and inner write-back write-allocate (TEX=001, C=1, B=1), non-shareable
 /// (with ACTLR.SMP = 0 a Cortex-A9 would treat shareable Normal memory as uncached).
 const NORMAL_WB: u32 = (0b001 << 12) | (1 << 3) | (1 << 2);
+/// Normal memory, outer and inner non-cacheable (TEX=001, C=0, B=0), non-shareable: memory the
+/// Ethernet controller's DMA shares with the CPU (`arm/gem.rs`), which does not snoop the caches.
+const NORMAL_NC: u32 = 0b001 << 12;
 /// Translation fault (descriptor type 0b00): unmapped. Marker value, see `table_entry`.
 const FAULT: u32 = u32::MAX;
 /// Shareable Device memory (TEX=000, C=0, B=1), never executable.
@@ -102,12 +105,18 @@ extern "C" {
     static mut _ttb: [u32; 4096];
 }
 
+// The uncached section is the one that holds the GEM's DMA area.
+const _: () = assert!(crate::layout::GEM_DMA_BASE >> 20 == 0x03F);
+
 /// Attributes for the 1 MiB section starting at `index << 20` (Zynq-7000 memory map).
 pub const fn section_attrs(index: u32) -> u32 {
     match index {
         // Null-pointer guard: the first MiB of DDR is not used by the image (link.x starts at
         // 1 MiB), so any access there faults (data abort / prefetch abort -> exit code 102).
         0x000 => FAULT,
+        // The mailbox MiB: QEMU's loader descriptors at its top, the GEM's DMA rings and buffers
+        // at its start (`layout::GEM_DMA_BASE`): uncached, so that CPU and DMA agree.
+        0x03F => NORMAL_NC,
         // DDR (up to 1 GiB).
         0x001..=0x3FF => NORMAL_WB,
         // On-chip memory mapped high (0xFFFC_0000..): the last MiB.

@@ -1,8 +1,10 @@
 //! Everything that only exists on the bare-metal target (`target_os = "none"`): start-up code,
-//! exception vectors, CPU set-up, semihosting, the UART, the panic handler and the defmt global
-//! logger.
+//! exception vectors, CPU set-up, semihosting, the UART, Ethernet (GEM0 and smoltcp), the panic
+//! handler and the defmt global logger.
 
 pub mod cpu;
+pub mod gem;
+pub mod net;
 pub mod semihosting;
 mod start;
 pub mod uart;
