@@ -120,7 +120,7 @@ pub const GEM_DMA_BASE: usize = 0x03F0_0000;
 pub const GEM_DMA_LEN: usize = 0x0008_0000;
 const _: () = assert!(
     GEM_DMA_BASE == RAM_END
-        && GEM_DMA_BASE % 0x10_0000 == 0
+        && GEM_DMA_BASE.is_multiple_of(0x10_0000)
         && GEM_DMA_BASE + GEM_DMA_LEN <= NET_DESC_ADDR
 );
 
