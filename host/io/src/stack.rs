@@ -194,27 +194,32 @@ impl Stack {
             })
         };
         let info = probe(0)?;
-        // Headers of the other frames, in parallel: a mismatch anywhere stops the work here.
-        (1..frames.len()).into_par_iter().try_for_each(|frame| {
-            let other = probe(frame)?;
-            if other != info {
-                return Err(StackError::Frame {
-                    path: frames[frame].clone(),
-                    frame,
-                    message: format!(
-                        "is {}x{} {}-bit, frame 0 ({}) is {}x{} {}-bit",
-                        other.width,
-                        other.height,
-                        other.container_bits,
-                        frames[0].display(),
-                        info.width,
-                        info.height,
-                        info.container_bits
-                    ),
-                });
-            }
-            Ok(())
-        })?;
+        // Headers of the other frames, in parallel: a mismatch anywhere stops the work here,
+        // reported for the first bad frame in sequence order (the same error on every run).
+        let probed: Vec<Result<(), StackError>> = (1..frames.len())
+            .into_par_iter()
+            .map(|frame| {
+                let other = probe(frame)?;
+                if other != info {
+                    return Err(StackError::Frame {
+                        path: frames[frame].clone(),
+                        frame,
+                        message: format!(
+                            "is {}x{} {}-bit, frame 0 ({}) is {}x{} {}-bit",
+                            other.width,
+                            other.height,
+                            other.container_bits,
+                            frames[0].display(),
+                            info.width,
+                            info.height,
+                            info.container_bits
+                        ),
+                    });
+                }
+                Ok(())
+            })
+            .collect();
+        probed.into_iter().collect::<Result<(), StackError>>()?;
         let bit_depth = bit_depth.unwrap_or(info.container_bits);
         if bit_depth == 0 || bit_depth > info.container_bits {
             return Err(StackError::BitDepth {
@@ -296,10 +301,12 @@ impl Stack {
             }
         }
         let max = ((1u32 << self.bit_depth) - 1) as u16;
-        slots
+        // Every frame's result, then the first error in sequence order: the same error on every
+        // run, whichever thread meets a bad frame first (`try_for_each` returned that one).
+        let results: Vec<Result<(), StackError>> = slots
             .into_par_iter()
             .enumerate()
-            .try_for_each(|(frame, mut slot)| {
+            .map(|(frame, mut slot)| {
                 let path = &self.frames[frame];
                 let mut out_of_range = None;
                 image_files::read_rows(path, &self.info, rows.clone(), |y, samples| {
@@ -329,5 +336,7 @@ impl Stack {
                 }
                 Ok(())
             })
+            .collect();
+        results.into_iter().collect()
     }
 }
