@@ -3,9 +3,11 @@
 # is missing, build the ARM ELF, cross-check its candidates against the host's decode under
 # QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections, on the firmware's
 # own mirror scene and on the simulator's plane_mirror, with CLEAN and with the local-maximum
-# search), drive it with the host CLI over its UART (`fsm camera info`, `fsm camera scan`),
-# check how it refuses bad input, the determinism of its instruction counts, every failure path's exit
-# code, the Rust cross-check test, and (if defmt-print is installed) defmt logging.
+# search), drive it with the host CLI over its UART and its Ethernet (`fsm camera info`, `fsm
+# camera scan`), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
+# (console on UART1, scans over Ethernet, a panic that resets the SoC), check how it refuses bad
+# input, the determinism of its instruction counts, every failure path's exit code, the Rust
+# cross-check test, and (if defmt-print is installed) defmt logging.
 # Non-interactive. Ends with the line `N passed, M failed` and exits non-zero if anything failed.
 #
 # Environment: FW_SKIP_INSTALL=1 to skip scripts/install-toolchain.sh;
@@ -249,6 +251,82 @@ else
 fi
 kill "$net_qemu" 2>/dev/null || true
 wait "$net_qemu" 2>/dev/null || true
+
+# 2f. The board: scripts/image-arm.sh's images; its raw binary started the way U-Boot's `go`
+#     starts it (loaded at its load address, the PC there) with no debugger behind it (no
+#     semihosting), after the memory writes of its boot.cmd (`mw.l`: the Ethernet settings,
+#     here 10.0.2.16/24 port 7071). Console on UART1, `fsm camera info` and `fsm camera scan`
+#     over Ethernet byte-identical to the host's decode (BFSM and two-group EFSM); then a panic:
+#     reported on UART1, the SoC reset (which ends QEMU under -no-reboot), and booted again when
+#     QEMU lets the reset restart it.
+images="$WORK/images"
+images_ok=0
+if "$S/image-arm.sh" --elf "$ELF" --out "$images" --address 10.0.2.16/24 --gateway 10.0.2.2 \
+        --port 7071 >images.txt 2>&1 \
+    && [ -s "$images/fsm-firmware.bin" ] && [ -s "$images/fsm-firmware-zedboard.cfg" ] \
+    && [ -s "$images/boot.bif" ] && dumpimage -l "$images/boot.scr" >boot-scr.txt 2>&1 \
+    && grep -q 'Script' boot-scr.txt && [ "$(grep -c '^mw.l ' "$images/boot.cmd")" = 5 ]; then
+    images_ok=1
+    ok "image-arm.sh: $(sed -n 2p "$images/image.txt"); boot.scr: $(grep 'Image Type' boot-scr.txt | sed 's/.*: *//')"
+else
+    cat images.txt boot-scr.txt 2>/dev/null || true
+    bad "image-arm.sh"
+fi
+# boot.cmd's `mw.l ADDR VALUE` lines as run-qemu.sh's `--word ADDR=VALUE`.
+mapfile -t board_words < <(sed -n 's/^mw.l \(0x[0-9a-f]*\) \(0x[0-9a-f]*\)$/--word\n\1=\2/p' "$images/boot.cmd" 2>/dev/null)
+board_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+"$S/run-qemu.sh" --board --serve-net "$board_port" --guest 10.0.2.16:7071 \
+    ${board_words[@]+"${board_words[@]}"} "$images/fsm-firmware.bin" >board-console.txt 2>board-qemu.txt &
+board_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
+for _ in $(seq 150); do
+    grep -q '^SERVE NET' board-console.txt && break
+    sleep 0.2
+done
+board_up=0
+[ "$images_ok" = 1 ] && grep -q '^BOARD no debugger answers' board-console.txt \
+    && grep -q '^SERVE NET 10.0.2.16:7071 ' board-console.txt && board_up=1
+net_dev="tcp://127.0.0.1:$board_port"
+if [ "$sim_ok" = 1 ] && [ "$board_up" = 1 ] \
+    && "$FSM" camera info --device "$net_dev" >board-info.txt 2>&1 \
+    && grep -q '^max pixels per row *2048' board-info.txt; then
+    ok "raw binary booted as by U-Boot, no debugger: console on UART1, fsm camera info over Ethernet at 10.0.2.16:7071"
+else
+    cat board-console.txt board-qemu.txt board-info.txt 2>/dev/null || true
+    bad "raw binary booted as by U-Boot: console on UART1, fsm camera info over Ethernet"
+fi
+for p in paper-bfsm paper-efsm-2; do
+    if [ "$sim_ok" = 1 ] && [ "$board_up" = 1 ] && net_scan "$p" "board-$p" >"board-$p.rate"; then
+        cat "board-$p.rate"
+        ok "raw binary booted as by U-Boot: fsm camera scan, $p (32 rows x 48 pixels): candidates bit-identical"
+    else
+        cat "board-$p.rate" 2>/dev/null || true
+        bad "raw binary booted as by U-Boot: fsm camera scan, $p"
+    fi
+done
+kill "$board_qemu" 2>/dev/null || true
+wait "$board_qemu" 2>/dev/null || true
+set +e
+"$S/run-qemu.sh" --board --timeout 30 --selftest panic "$images/fsm-firmware.bin" >board-panic.txt 2>&1
+rc=$?
+set -e
+if [ "$rc" = 0 ] && grep -q '^PANIC: panicked at ' board-panic.txt \
+    && grep -q '^RESET: stopped with code 101' board-panic.txt; then
+    ok "raw binary, no debugger: a panic is reported on UART1 and resets the SoC"
+else
+    cat board-panic.txt
+    bad "raw binary, no debugger: panic (exit $rc, want 0 from -no-reboot, PANIC and RESET lines)"
+fi
+# With the reset allowed to restart the image, it boots again: more than one banner in 5 s.
+set +e
+"$S/run-qemu.sh" --board --reboot --timeout 5 --selftest exit:7 "$images/fsm-firmware.bin" >board-reboot.txt 2>&1
+set -e
+boots="$(grep -c '^BOARD no debugger answers' board-reboot.txt || true)"
+if [ "$boots" -ge 2 ] && grep -q '^RESET: stopped with code 7' board-reboot.txt; then
+    ok "raw binary, no debugger: after a reset of the SoC the firmware boots again ($boots boots in 5 s)"
+else
+    head -n 20 board-reboot.txt
+    bad "raw binary, no debugger: boots again after a reset ($boots boots)"
+fi
 
 # 3. Bad input: a dump of another plan, a truncated dump. Refused with a message naming what is
 #    wrong, exit code 3, and no candidate file left behind.

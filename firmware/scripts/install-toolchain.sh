@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install what the bare-metal (armv7a-none-eabihf) firmware build and its QEMU runs need on a
-# fresh Debian machine: Debian's Rust (rustc/cargo 1.9x with the std source, for -Zbuild-std)
-# and qemu-system-arm (machine xilinx-zynq-a9).  Idempotent: packages that are already
+# fresh Debian machine: Debian's Rust (rustc/cargo 1.9x with the std source, for -Zbuild-std),
+# qemu-system-arm (machine xilinx-zynq-a9) and u-boot-tools (mkimage, for the boot script of
+# scripts/image-arm.sh).  Idempotent: packages that are already
 # installed are left alone and `apt-get update` runs only when something is missing.
 # Safe to call from CI (non-interactive, no prompts).  Must run as root (or with sudo).
 #
@@ -19,7 +20,7 @@ for a in "$@"; do
     esac
 done
 
-PKGS=(rustc-web cargo-web rust-web-src qemu-system-arm)
+PKGS=(rustc-web cargo-web rust-web-src qemu-system-arm u-boot-tools)
 
 missing=()
 for p in "${PKGS[@]}"; do
@@ -42,7 +43,7 @@ else
 fi
 
 # Sanity checks: fail loudly here rather than deep inside a build.
-for f in /usr/bin/rustc /usr/bin/cargo /usr/bin/qemu-system-arm; do
+for f in /usr/bin/rustc /usr/bin/cargo /usr/bin/qemu-system-arm /usr/bin/mkimage; do
     [ -x "$f" ] || { echo "install-toolchain: $f missing after install" >&2; exit 1; }
 done
 [ -d /usr/lib/rustlib/src/rust/library/core ] \

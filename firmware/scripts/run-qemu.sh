@@ -2,6 +2,7 @@
 # Run the firmware ELF under QEMU's Zynq-7000 model and propagate its exit status.
 #
 # Usage: scripts/run-qemu.sh [options] <elf> [input-file]
+#        scripts/run-qemu.sh --board [options] <elf | raw binary>
 #   --plan FILE      put a scan plan (its 80 canonical bytes) into the plan mailbox at
 #                    0x03FFFF08 with the descriptor {"PLAN", 80} at 0x03FFFF00 (src/layout.rs)
 #   --icount         instruction-count mode: `-icount shift=$ICOUNT_SHIFT` (default 4) and tell
@@ -28,15 +29,31 @@
 #                    as --serve-uart (no input, exec, no time-out unless --timeout).
 #   --uart N         with --serve-uart: UART0 (QEMU's first -serial, 0xE0000000) or UART1
 #                    (the second, 0xE0001000; the ZedBoard's USB-UART). Default 1.
+#   --board          start the image as a board does, with no debugger: no semihosting, so the
+#                    firmware's console is UART1 (on this script's stdout) and it serves over
+#                    Ethernet (GEM0 on user networking; with --serve-net PORT forwarded from
+#                    127.0.0.1:PORT to --guest). The image is the ELF or a raw binary
+#                    (scripts/image-arm.sh's fsm-firmware.bin), which is loaded at
+#                    --load-address and started there with the CPU's PC set to it, as U-Boot's
+#                    `go` does. A reset of the SoC ends QEMU (-no-reboot) unless --reboot.
+#                    No input file, --plan or --serve-uart; no descriptor but --selftest's
+#                    and --word's.
+#   --guest A:P      with --board --serve-net: the firmware's address and port (default
+#                    10.0.2.15:7070, its default without a NET descriptor)
+#   --load-address A with --board and a raw binary: where it goes and starts (0x00100000)
+#   --word ADDR=VAL  write the 32-bit word VAL at ADDR before the CPU starts (what U-Boot's
+#                    `mw.l ADDR VAL` does); repeatable
+#   --reboot         with --board: let a reset of the SoC restart the image
 #
 # The input file (at most 64 MiB) is placed raw at 0x04000000 with QEMU's generic loader and
 # its length in the descriptor {"FSMI", length} at 0x03FFFFF0 (src/layout.rs).
-# The firmware's console output (semihosting) goes to stdout, this script's and QEMU's own
-# messages to stderr. Semihosting file paths (fw-candidates.bin, defmt.bin) are relative to the
+# The firmware's console output (semihosting; with --board UART1) goes to stdout, this script's
+# and QEMU's own messages to stderr. Semihosting file paths (fw-candidates.bin, defmt.bin) are relative to the
 # current directory.
 # Exit status: QEMU's, i.e. the firmware's semihosting exit code (0 = success, 101 = panic,
 # 102 = CPU exception), 124 on timeout. With --serve-uart or --serve-net the firmware never exits: QEMU runs
-# until it is killed.
+# until it is killed. With --board there is no exit code to give: QEMU ends with 0 when the
+# firmware resets the SoC (a panic, an exception, a self-test's exit), which its console says.
 set -euo pipefail
 
 QEMU="${QEMU:-qemu-system-arm}"
@@ -50,8 +67,13 @@ SERVE_PORT=""
 NET_PORT=""
 UART_INDEX=1
 TIMEOUT_GIVEN=0
+BOARD=0
+GUEST=""
+LOAD_ADDR=0x00100000
+REBOOT=0
+WORDS=()
 
-usage() { sed -n '2,39p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,59p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -62,6 +84,11 @@ while [ $# -gt 0 ]; do
         --serve-uart) [ $# -ge 2 ] || usage; SERVE_PORT="$2"; shift ;;
         --serve-net) [ $# -ge 2 ] || usage; NET_PORT="$2"; shift ;;
         --uart) [ $# -ge 2 ] || usage; UART_INDEX="$2"; shift ;;
+        --board) BOARD=1 ;;
+        --guest) [ $# -ge 2 ] || usage; GUEST="$2"; shift ;;
+        --load-address) [ $# -ge 2 ] || usage; LOAD_ADDR="$2"; shift ;;
+        --word) [ $# -ge 2 ] || usage; WORDS+=("$2"); shift ;;
+        --reboot) REBOOT=1 ;;
         --trace) [ $# -ge 2 ] || usage; TRACE="$2"; shift ;;
         -h|--help) usage ;;
         --) shift; break ;;
@@ -115,7 +142,22 @@ if [ -n "$SERVE_PORT" ]; then
 fi
 
 nic=()
-if [ -n "$NET_PORT" ]; then
+if [ "$BOARD" = 1 ]; then
+    [ -z "$INPUT" ] && [ -z "$PLAN" ] && [ -z "$SERVE_PORT" ] \
+        || { echo "run-qemu: --board takes no input file, --plan or --serve-uart" >&2; exit 2; }
+    guest="${GUEST:-$NET_GUEST:$NET_GUEST_PORT}"
+    case "$guest" in *:*) ;; *) echo "run-qemu: --guest wants ADDRESS:PORT, not $guest" >&2; exit 2 ;; esac
+    fwd=""
+    if [ -n "$NET_PORT" ]; then
+        case "$NET_PORT" in ''|*[!0-9]*) echo "run-qemu: --serve-net PORT must be a number" >&2; exit 2 ;; esac
+        fwd=",hostfwd=tcp:127.0.0.1:$NET_PORT-${guest%:*}:${guest##*:}"
+    fi
+    # UART1 (the second -serial) is the console: stdout. GEM0 is always there, as on a board.
+    serial=(-serial null -serial stdio)
+    nic=(-nic "user,model=cadence_gem,restrict=on$fwd")
+elif [ -n "$GUEST" ] || [ "$REBOOT" = 1 ]; then
+    echo "run-qemu: --guest and --reboot go with --board" >&2; exit 2
+elif [ -n "$NET_PORT" ]; then
     case "$NET_PORT" in ''|*[!0-9]*) echo "run-qemu: --serve-net PORT must be a number" >&2; exit 2 ;; esac
     [ "$NET_PORT" -ge 1 ] && [ "$NET_PORT" -le 65535 ] || { echo "run-qemu: port $NET_PORT is not 1..65535" >&2; exit 2; }
     [ -z "$INPUT" ] && [ -z "$PLAN" ] && [ -z "$SELFTEST" ] && [ -z "$SERVE_PORT" ] \
@@ -126,14 +168,23 @@ fi
 
 # `-semihosting` alone would print the firmware's console output on QEMU's stderr (QEMU 7.2);
 # routing it through a stdio chardev puts it on stdout, leaving stderr to QEMU and this script.
-args=(-M xilinx-zynq-a9 -nographic -monitor none "${serial[@]}" "${nic[@]}"
-      -chardev stdio,id=semihost -semihosting-config enable=on,target=native,chardev=semihost)
+args=(-M xilinx-zynq-a9 -nographic -monitor none "${serial[@]}" "${nic[@]}")
+if [ "$BOARD" = 0 ]; then
+    args+=(-chardev stdio,id=semihost -semihosting-config enable=on,target=native,chardev=semihost)
+elif [ "$REBOOT" = 0 ]; then
+    args+=(-no-reboot)
+fi
+
+for w in ${WORDS[@]+"${WORDS[@]}"}; do
+    case "$w" in *=*) ;; *) echo "run-qemu: --word wants ADDR=VALUE, not $w" >&2; exit 2 ;; esac
+    mapfile -t -O "${#args[@]}" args < <(word "${w%%=*}" "${w#*=}")
+done
 
 if [ -n "$SERVE_PORT" ]; then
     mapfile -t -O "${#args[@]}" args < <(word "$UART_DESC" "$MAGIC_UART"; word "$((0x03ffffdc))" "$UART_INDEX")
 fi
 
-if [ -n "$NET_PORT" ]; then
+if [ -n "$NET_PORT" ] && [ "$BOARD" = 0 ]; then
     # {"NET ", port 0 (default), address 0 (default 10.0.2.15/24 via 10.0.2.2), 0, 0}
     mapfile -t -O "${#args[@]}" args < <(word "$NET_DESC" "$MAGIC_NET"; word "$((0x03ffffc4))" 0;
         word "$((0x03ffffc8))" 0; word "$((0x03ffffcc))" 0; word "$((0x03ffffd0))" 0)
@@ -177,14 +228,20 @@ if [ -n "$TRACE" ]; then
     args+=(-singlestep -d exec,nochain -D "$TRACE")
 fi
 
-args+=(-kernel "$ELF")
+if [ "$BOARD" = 1 ] && [ "$(head -c 4 "$ELF" | od -A n -t x1 | tr -d ' ')" != 7f454c46 ]; then
+    # A raw binary: loaded at its address, the CPU started there (U-Boot's `go`).
+    case "$ELF" in *,*) echo "run-qemu: image path must not contain a comma" >&2; exit 2 ;; esac
+    args+=(-device "loader,file=$ELF,addr=$LOAD_ADDR,force-raw=on" -device "loader,addr=$LOAD_ADDR,cpu-num=0")
+else
+    args+=(-kernel "$ELF")
+fi
 
 if [ -n "$SERVE_PORT" ] && [ "$TIMEOUT_GIVEN" = 0 ]; then
     echo "run-qemu: serving on UART$UART_INDEX at tcp://127.0.0.1:$SERVE_PORT" >&2
     exec "$QEMU" "${args[@]}" </dev/null
 fi
 if [ -n "$NET_PORT" ] && [ "$TIMEOUT_GIVEN" = 0 ]; then
-    echo "run-qemu: serving over Ethernet (GEM0) at tcp://127.0.0.1:$NET_PORT -> $NET_GUEST:$NET_GUEST_PORT" >&2
+    echo "run-qemu: serving over Ethernet (GEM0) at tcp://127.0.0.1:$NET_PORT -> ${guest:-$NET_GUEST:$NET_GUEST_PORT}" >&2
     exec "$QEMU" "${args[@]}" </dev/null
 fi
 

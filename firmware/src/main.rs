@@ -1,7 +1,9 @@
 //! The firmware image (bare metal) / the camera emulator and cross-check tools (host).
 //!
-//! Bare metal: `_start` (src/arm/start.rs) calls `fw_main`, which looks at the input QEMU's
-//! loader placed in RAM (scripts/run-qemu.sh):
+//! Bare metal: `_start` (src/arm/start.rs) calls `fw_main`. When no semihosting host answers
+//! (a board without a debugger, `run-qemu.sh --board`), it is a camera on its own: console on
+//! UART1, the protocol over Ethernet, a reset on a panic (`board`). Otherwise it looks at the
+//! input QEMU's loader placed in RAM (scripts/run-qemu.sh):
 //! - a row dump (with the plan in its mailbox: `run-qemu.sh --plan PLAN ELF DUMP`): decode
 //!   every row and write the candidate file `fw-candidates.bin`; under `--icount` also print
 //!   exact instruction counts (`BENCH ...`);
@@ -30,7 +32,8 @@ mod fw {
     use fsm_firmware::arm::cpu::QEMU_NS_PER_GTIMER_TICK;
     use fsm_firmware::arm::gem::{Gem, GemConfig};
     use fsm_firmware::arm::net::{Net, NetTimeouts};
-    use fsm_firmware::arm::semihosting::{self, exit, File, Mode};
+    use fsm_firmware::arm::semihosting::{self, File, Mode};
+    use fsm_firmware::arm::stop;
     use fsm_firmware::arm::uart::{Port, Uart, BAUD};
     use fsm_firmware::batch::{self, BatchMemory, Sink};
     use fsm_firmware::device::{Device, Replay};
@@ -185,7 +188,7 @@ mod fw {
                 unsafe { core::arch::asm!("udf #0", options(nomem, nostack)) };
                 panic!("udf did not trap");
             }
-            SelfTest::Exit(code) => exit(code),
+            SelfTest::Exit(code) => stop(code),
         }
     }
 
@@ -320,7 +323,7 @@ mod fw {
                 drop(sink);
                 let _ = semihosting::remove(path);
                 hprintln!("ERROR: {}", e);
-                exit(EXIT_BAD_INPUT)
+                stop(EXIT_BAD_INPUT)
             }
         }
     }
@@ -437,7 +440,7 @@ mod fw {
                 clock.overhead
             );
         }
-        exit(0)
+        stop(0)
     }
 
     /// Serves a recorded request stream; the responses go to `fw-link.bin`.
@@ -470,7 +473,7 @@ mod fw {
                     r.rows,
                     r.errors
                 );
-                exit(0)
+                stop(0)
             }
             Err(e) => {
                 drop(link);
@@ -480,10 +483,41 @@ mod fw {
         }
     }
 
+    /// The first console line: version and limits.
+    fn banner() {
+        hprintln!(
+            "fsm-firmware {} (armv7a-none-eabihf, Cortex-A9): buffers {} bytes, rows up to {} pixels / {} samples, {} candidates per pixel",
+            env!("CARGO_PKG_VERSION"),
+            fsm_firmware::memory::MEMORY_BYTES,
+            limits::MAX_WIDTH,
+            limits::MAX_ROW_SAMPLES,
+            limits::CANDIDATE_CAPACITY
+        );
+    }
+
+    /// No semihosting host answers: a board that booted on its own (U-Boot's `go`, an SD card)
+    /// or `run-qemu.sh --board`. The console is UART1; the camera serves the protocol over
+    /// Ethernet at the address of the `NET ` descriptor (U-Boot writes it with `mw.l`,
+    /// `scripts/image-arm.sh` makes the commands) or [`layout::NetConfig::DEFAULT`]'s. The input,
+    /// plan and UART descriptors are the QEMU scripts' and are not looked at (a board's DDR
+    /// holds noise at power-on); a self-test request is honoured, so that a test can see a
+    /// panic reach the console and reset the SoC.
+    fn board(storage: &'static mut Storage) -> ! {
+        banner();
+        hprintln!("BOARD no debugger answers: console on UART1, the protocol over Ethernet (GEM0)");
+        if let Some(t) = layout::selftest() {
+            selftest(t);
+        }
+        start_net(layout::net().unwrap_or(layout::NetConfig::DEFAULT), storage)
+    }
+
     #[no_mangle]
     pub extern "C" fn fw_main() -> ! {
         // SAFETY: the only reference to STORAGE, taken once.
         let storage: &'static mut Storage = unsafe { &mut *addr_of_mut!(STORAGE) };
+        if !semihosting::host_present() {
+            board(storage)
+        }
         // Before the banner: serving over a UART makes no semihosting call but one. The
         // descriptor comes from QEMU's loader, so a semihosting host is there to print that
         // the UART is ready: a host that sends before RX is enabled loses its bytes (UG585;
@@ -501,14 +535,7 @@ mod fw {
             );
             serve_uart(uart, storage)
         }
-        hprintln!(
-            "fsm-firmware {} (armv7a-none-eabihf, Cortex-A9): buffers {} bytes, rows up to {} pixels / {} samples, {} candidates per pixel",
-            env!("CARGO_PKG_VERSION"),
-            fsm_firmware::memory::MEMORY_BYTES,
-            limits::MAX_WIDTH,
-            limits::MAX_ROW_SAMPLES,
-            limits::CANDIDATE_CAPACITY
-        );
+        banner();
         if let Some(t) = layout::selftest() {
             selftest(t);
         }
@@ -536,7 +563,7 @@ mod fw {
                     Ok(plan) => run_dump(&plan, dump, storage, shift),
                     Err(e) => {
                         hprintln!("ERROR: plan mailbox: {}", e);
-                        exit(EXIT_BAD_INPUT)
+                        stop(EXIT_BAD_INPUT)
                     }
                 }
             }
@@ -545,17 +572,17 @@ mod fw {
                     "ERROR: a row dump without a plan (put the plan's 80 bytes in the mailbox at {:#010x}: run-qemu.sh --plan)",
                     layout::PLAN_DESC_ADDR
                 );
-                exit(EXIT_BAD_INPUT)
+                stop(EXIT_BAD_INPUT)
             }
             (Some(_), Some(_)) => {
                 hprintln!(
                     "ERROR: a plan in the mailbox, but the input is no row dump (magic FSMROWS)"
                 );
-                exit(EXIT_BAD_INPUT)
+                stop(EXIT_BAD_INPUT)
             }
             (None, _) => {
                 hprintln!("INPUT none: nothing to decode");
-                exit(0)
+                stop(0)
             }
         }
     }

@@ -1,7 +1,8 @@
 //! Everything that only exists on the bare-metal target (`target_os = "none"`): start-up code,
-//! exception vectors, CPU set-up, semihosting, the UART, Ethernet (GEM0 and smoltcp), the panic
-//! handler and the defmt global logger.
+//! exception vectors, CPU set-up, semihosting, the console, the UART, Ethernet (GEM0 and
+//! smoltcp), the panic handler, the end of the program ([`stop`]) and the defmt global logger.
 
+pub mod console;
 pub mod cpu;
 pub mod gem;
 pub mod net;
@@ -14,17 +15,46 @@ pub mod logger;
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use semihosting::{exit, EXIT_EXCEPTION, EXIT_PANIC};
+use semihosting::{EXIT_EXCEPTION, EXIT_PANIC};
 
-/// Prints the panic message (`PANIC: panicked at file:line:col:\n<message>`) on the host
-/// console and terminates QEMU with exit code 101.
+/// Ends the program with `code`: with a semihosting host (QEMU, a debugger), its exit with that
+/// code; on a board, after a `RESET` line on the console, a software reset of the whole SoC
+/// (SLCR `PSS_RST_CTRL`), so that a camera that met a bug boots again instead of hanging.
+/// Under `run-qemu.sh --board` (`-no-reboot`) the reset ends QEMU.
+pub fn stop(code: u8) -> ! {
+    if semihosting::host_present() {
+        semihosting::exit(code)
+    }
+    crate::hprintln!("RESET: stopped with code {}, resetting the SoC", code);
+    console::flush();
+    reset_soc()
+}
+
+/// A software reset of the processing system (UG585, "PS Reset": `SLCR_UNLOCK` with its key,
+/// then `PSS_RST_CTRL.SOFT_RST`), as Linux's and RTEMS's Zynq ports do it.
+fn reset_soc() -> ! {
+    const SLCR_UNLOCK: usize = 0xF800_0008;
+    const SLCR_UNLOCK_KEY: u32 = 0xDF0D;
+    const PSS_RST_CTRL: usize = 0xF800_0200;
+    loop {
+        // SAFETY: the SLCR's unlock and reset registers (Device memory in `cpu::section_attrs`);
+        // the write resets the SoC, nothing Rust owns survives it.
+        unsafe {
+            (SLCR_UNLOCK as *mut u32).write_volatile(SLCR_UNLOCK_KEY);
+            (PSS_RST_CTRL as *mut u32).write_volatile(1);
+        }
+    }
+}
+
+/// Prints the panic message (`PANIC: panicked at file:line:col:\n<message>`) on the console
+/// and stops with code 101 (QEMU's exit code; a reset on a board).
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     static PANICKING: AtomicBool = AtomicBool::new(false);
     if !PANICKING.swap(true, Ordering::Relaxed) {
         crate::hprintln!("PANIC: {}", info);
     }
-    exit(EXIT_PANIC)
+    stop(EXIT_PANIC)
 }
 
 const EXCEPTION_NAMES: [&str; 8] = [
@@ -40,19 +70,10 @@ const EXCEPTION_NAMES: [&str; 8] = [
 
 /// Every vector but reset ends up here (src/arm/start.rs), on its own small stack, with
 /// `kind` = vector index, `pc` = address of the faulting instruction, `spsr` = the
-/// interrupted mode's status register. Reports and exits with code 102.
+/// interrupted mode's status register. Reports on the console and stops with code 102.
+/// (A semihosting SVC nobody answers does not come here: its vector returns -1.)
 #[no_mangle]
 extern "C" fn fsm_fw_exception(kind: u32, pc: u32, spsr: u32) -> ! {
-    if kind == 2 {
-        // An SVC that reached the vector: if it is the semihosting SVC, no semihosting host is
-        // attached and there is no way to report anything. Park.
-        let insn = unsafe { (pc as *const u32).read_volatile() };
-        if insn & 0x0F00_0000 == 0x0F00_0000 && insn & 0x00FF_FFFF == 0x12_3456 {
-            loop {
-                unsafe { core::arch::asm!("wfi", options(nomem, nostack, preserves_flags)) };
-            }
-        }
-    }
     let (dfsr, dfar, ifsr, ifar) = cpu::fault_registers();
     let name = EXCEPTION_NAMES.get(kind as usize).copied().unwrap_or("?");
     crate::hprintln!(
@@ -65,5 +86,5 @@ extern "C" fn fsm_fw_exception(kind: u32, pc: u32, spsr: u32) -> ! {
         ifsr,
         ifar
     );
-    exit(EXIT_EXCEPTION)
+    stop(EXIT_EXCEPTION)
 }

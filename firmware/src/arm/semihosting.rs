@@ -4,8 +4,9 @@
 //! pointer to the argument block (or the single argument) in r1; the result comes back in r0.
 //! QEMU implements it with `-semihosting` (`target=native` unless a gdb is attached); file
 //! paths are relative to QEMU's working directory. On real hardware a debugger (OpenOCD,
-//! Lauterbach, ...) must catch the SVC; without one the SVC vector is taken and
-//! `fsm_fw_exception` parks the CPU (it cannot report anything).
+//! Lauterbach, ...) must catch the SVC; without one the SVC vector is taken, and it answers
+//! -1 (src/arm/start.rs): every call then fails, and [`host_present`] says so once, so that
+//! the firmware boots into its board mode (console on UART1, serving over Ethernet).
 //!
 //! Exit status as QEMU (7.2, and later) maps it to its own process exit code:
 //! - `SYS_EXIT` (0x18) in A32 takes only a reason code: `ADP_Stopped_ApplicationExit`
@@ -16,7 +17,7 @@
 //!   does not implement it.
 
 use core::arch::asm;
-use core::fmt;
+use core::sync::atomic::{AtomicU8, Ordering};
 
 /// Semihosting operation numbers (ARM "Semihosting for AArch32 and AArch64", v2).
 pub mod op {
@@ -62,6 +63,27 @@ pub unsafe fn call(op: u32, arg: usize) -> isize {
     ret
 }
 
+/// Whether a semihosting host answers (QEMU's `-semihosting` or a debugger), asked once.
+///
+/// `SYS_ERRNO` returns the host's errno, never negative; with nobody behind the SVC, the
+/// vector answers -1 (src/arm/start.rs). A debugger attached later is not noticed: the
+/// answer is kept, so that the firmware's mode does not change under it.
+pub fn host_present() -> bool {
+    const UNKNOWN: u8 = 0;
+    const PRESENT: u8 = 1;
+    const ABSENT: u8 = 2;
+    static HOST: AtomicU8 = AtomicU8::new(UNKNOWN);
+    match HOST.load(Ordering::Relaxed) {
+        UNKNOWN => {
+            // SAFETY: SYS_ERRNO takes no argument.
+            let present = unsafe { call(op::SYS_ERRNO, 0) } >= 0;
+            HOST.store(if present { PRESENT } else { ABSENT }, Ordering::Relaxed);
+            present
+        }
+        h => h == PRESENT,
+    }
+}
+
 /// Write raw bytes to the host console (QEMU's stdout). NULs are skipped.
 pub fn write_bytes(bytes: &[u8]) {
     // SYS_WRITE0 wants a NUL-terminated string: send the text in NUL-terminated chunks.
@@ -88,34 +110,6 @@ pub fn write_bytes(bytes: &[u8]) {
 /// Write a string to the host console.
 pub fn write_str(s: &str) {
     write_bytes(s.as_bytes());
-}
-
-/// The host console as a `core::fmt::Write` sink (unbuffered beyond 128-byte chunks).
-pub struct Console;
-
-impl fmt::Write for Console {
-    fn write_str(&mut self, s: &str) -> fmt::Result {
-        write_bytes(s.as_bytes());
-        Ok(())
-    }
-}
-
-/// `print!` to the semihosting console.
-#[macro_export]
-macro_rules! hprint {
-    ($($arg:tt)*) => {{
-        let _ = core::fmt::Write::write_fmt(&mut $crate::arm::semihosting::Console, format_args!($($arg)*));
-    }};
-}
-
-/// `println!` to the semihosting console.
-#[macro_export]
-macro_rules! hprintln {
-    () => { $crate::arm::semihosting::write_str("\n") };
-    ($($arg:tt)*) => {{
-        let _ = core::fmt::Write::write_fmt(&mut $crate::arm::semihosting::Console, format_args!($($arg)*));
-        $crate::arm::semihosting::write_str("\n");
-    }};
 }
 
 /// Host error: the operation failed; `errno` is the host's errno (SYS_ERRNO) at that time.

@@ -14,7 +14,12 @@
 //! 7. calls the application's `fw_main() -> !` (defined by the binary, src/main.rs).
 //!
 //! Every vector but reset goes to `fsm_fw_exception` (src/arm/mod.rs), which reports the
-//! exception over semihosting and exits with a failure code instead of hanging.
+//! exception on the console and stops (`arm::stop`: a failure code to QEMU or the debugger,
+//! a reset of the SoC on a board) instead of hanging. The one exception: a semihosting call
+//! that nobody answers returns -1 to its caller (see `_fsm_exc_svc`).
+//!
+//! U-Boot's `go` and a raw-binary boot start at the image's first byte, the reset vector,
+//! which branches to `_start`: the load address is the entry.
 
 core::arch::global_asm!(
     r#"
@@ -37,6 +42,17 @@ _fsm_exc_und:
     sub r1, lr, #4
     b   _fsm_exc_common
 _fsm_exc_svc:
+    /* A semihosting call (`svc #0x123456`, 0xEF123456) reaches this vector only when no
+       debugger or QEMU `-semihosting` answers it: answer -1 in r0 and return (CPSR from SPSR,
+       so the caller's flags too), so that the firmware can tell (`semihosting::host_present`)
+       and talk over its UART instead. r0 is the call's result anyway; r1 is left alone. */
+    ldr  r0, [lr, #-4]
+    eor  r0, r0, #0xEF000000
+    eor  r0, r0, #0x00120000
+    eor  r0, r0, #0x00003400
+    eors r0, r0, #0x00000056
+    mvneq r0, #0
+    movseq pc, lr
     mov r0, #2
     sub r1, lr, #4
     b   _fsm_exc_common

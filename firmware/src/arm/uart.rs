@@ -16,6 +16,8 @@
 //! first request. A UART never reports "closed". Line errors (overrun, framing, parity) are
 //! not looked at: the frame's CRC rejects what they damage.
 
+use core::sync::atomic::{AtomicBool, Ordering};
+
 use super::cpu::global_timer_ticks;
 use crate::device::{Link, Waiting};
 
@@ -187,26 +189,7 @@ impl Uart {
     /// business, as on every Zynq; QEMU needs neither.
     pub fn new(port: Port, frame_timeout_ticks: u64) -> Uart {
         let regs = Registers { base: port.base() };
-        let (cd, bdiv) = divisors(REF_CLK_HZ, BAUD);
-        regs.write(reg::IDR, ALL_INTERRUPTS);
-        // Stop both paths while the line is set up.
-        regs.write(reg::CR, cr::RX_DIS | cr::TX_DIS | cr::STOPBRK);
-        regs.write(reg::MR, MR_8N1);
-        regs.write(reg::BAUDGEN, cd as u32);
-        regs.write(reg::BAUD_DIV, bdiv as u32);
-        // Empty both FIFOs of whatever the boot left; the bits clear themselves when done.
-        regs.write(
-            reg::CR,
-            cr::RXRST | cr::TXRST | cr::RX_DIS | cr::TX_DIS | cr::STOPBRK,
-        );
-        let mut spins = 0u32;
-        while regs.read(reg::CR) & (cr::RXRST | cr::TXRST) != 0 && spins < 1_000_000 {
-            spins += 1;
-        }
-        regs.write(reg::RXTOUT, 0);
-        regs.write(reg::RXWM, 1);
-        regs.write(reg::ISR, ALL_INTERRUPTS);
-        regs.write(reg::CR, cr::RX_EN | cr::TX_EN | cr::STOPBRK);
+        configure(regs);
         Uart {
             regs,
             frame_timeout_ticks,
@@ -230,6 +213,62 @@ impl Uart {
     /// Whether everything written has left the TX FIFO.
     pub fn sent(&self) -> bool {
         self.status() & sr::TXEMPTY != 0
+    }
+}
+
+/// UG585's start-up sequence: 8N1, [`BAUD`] from [`REF_CLK_HZ`], no interrupts, both FIFOs
+/// emptied, RX and TX enabled.
+fn configure(regs: Registers) {
+    let (cd, bdiv) = divisors(REF_CLK_HZ, BAUD);
+    regs.write(reg::IDR, ALL_INTERRUPTS);
+    // Stop both paths while the line is set up.
+    regs.write(reg::CR, cr::RX_DIS | cr::TX_DIS | cr::STOPBRK);
+    regs.write(reg::MR, MR_8N1);
+    regs.write(reg::BAUDGEN, cd as u32);
+    regs.write(reg::BAUD_DIV, bdiv as u32);
+    // Empty both FIFOs of whatever the boot left; the bits clear themselves when done.
+    regs.write(
+        reg::CR,
+        cr::RXRST | cr::TXRST | cr::RX_DIS | cr::TX_DIS | cr::STOPBRK,
+    );
+    let mut spins = 0u32;
+    while regs.read(reg::CR) & (cr::RXRST | cr::TXRST) != 0 && spins < 1_000_000 {
+        spins += 1;
+    }
+    regs.write(reg::RXTOUT, 0);
+    regs.write(reg::RXWM, 1);
+    regs.write(reg::ISR, ALL_INTERRUPTS);
+    regs.write(reg::CR, cr::RX_EN | cr::TX_EN | cr::STOPBRK);
+}
+
+/// Queues `bytes` for sending as the TX FIFO has room; the line always drains it (no flow
+/// control), so this never fails.
+fn transmit(regs: Registers, bytes: &[u8]) {
+    for &b in bytes {
+        while regs.read(reg::SR) & sr::TXFULL != 0 {}
+        regs.write(reg::FIFO, b as u32);
+    }
+}
+
+/// The board console (src/arm/console.rs): `bytes` sent on `port`, which is configured as
+/// [`Uart::new`] does on the first call. Transmit only: a port that serves the protocol is
+/// never the console.
+pub fn console_write(port: Port, bytes: &[u8]) {
+    static CONFIGURED: [AtomicBool; 2] = [AtomicBool::new(false), AtomicBool::new(false)];
+    let regs = Registers { base: port.base() };
+    if !CONFIGURED[port as usize].swap(true, Ordering::Relaxed) {
+        configure(regs);
+    }
+    transmit(regs, bytes);
+}
+
+/// Waits until every byte [`console_write`] queued on `port` has left the TX FIFO (before a
+/// reset, which would drop them), for at most about a second at [`BAUD`] on a board.
+pub fn console_flush(port: Port) {
+    let regs = Registers { base: port.base() };
+    let mut spins = 0u32;
+    while regs.read(reg::SR) & sr::TXEMPTY == 0 && spins < 100_000_000 {
+        spins += 1;
     }
 }
 
@@ -259,10 +298,7 @@ impl Link for Uart {
     /// Fills the TX FIFO as it has room; the line always drains it (no flow control), so
     /// this never fails.
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), UartError> {
-        for &b in bytes {
-            while self.status() & sr::TXFULL != 0 {}
-            self.regs.write(reg::FIFO, b as u32);
-        }
+        transmit(self.regs, bytes);
         Ok(())
     }
 }

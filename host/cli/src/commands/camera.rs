@@ -13,7 +13,7 @@ use fsm_protocol::RowOutput;
 /// Upload a scan plan to a camera; it answers with the plan's fingerprint.
 ///
 /// Examples:
-///   fsm upload --plan plan.toml --device tcp://192.168.1.20:7878
+///   fsm upload --plan plan.toml --device tcp://192.168.1.10:7070
 ///   fsm upload --plan plan.toml --device /dev/ttyUSB0@921600
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
