@@ -65,7 +65,7 @@ set +e
 rc=$?
 set -e
 cat run1.txt
-if [ "$rc" = 0 ] && grep -q '^INPUT none' run1.txt && grep -q 'rows up to 2048 pixels' run1.txt; then
+if [ "$rc" = 0 ] && grep -q '^INPUT none' run1.txt && grep -q 'rows up to 4096 pixels' run1.txt; then
     ok "no input: limits printed, exit 0"
 else
     bad "no input: exit code $rc"
@@ -78,6 +78,16 @@ if FW_ELF="$ELF" "$S/crosscheck-arm.sh" --rows 32 --width 48 >crosscheck.txt 2>&
 else
     cat crosscheck.txt
     bad "crosscheck-arm.sh"
+fi
+
+# 2a. Rows of a real camera: 4096 pixels, decoded in slices (src/scan.rs), BFSM and two-group
+#     EFSM, replay and protocol session, bit-identical with the host's decode of the whole row.
+if FW_ELF="$ELF" "$S/crosscheck-arm.sh" --rows 2 --width 4096 >crosscheck-wide.txt 2>&1; then
+    grep -E '^(identical|ok)' crosscheck-wide.txt
+    ok "crosscheck-arm.sh: rows of 4096 pixels (BFSM and EFSM 2 groups, 2 rows, decoded in slices), bit-identical"
+else
+    cat crosscheck-wide.txt
+    bad "crosscheck-arm.sh --rows 2 --width 4096"
 fi
 
 # 2b. The same cross-check on the project's light-transport simulator: `fsm simulate` renders
@@ -136,7 +146,7 @@ done
 uart_dev="tcp://127.0.0.1:$uart_port"
 if [ "$sim_ok" = 1 ] && grep -q '^SERVE UART1' uart-console.txt \
     && "$FSM" camera info --device "$uart_dev" >uart-info.txt 2>&1 \
-    && grep -q '^max pixels per row *2048' uart-info.txt \
+    && grep -q '^max pixels per row *4096' uart-info.txt \
     && "$FSM" camera scan --plan sim-paper-efsm-2/plan.toml --dump sim-paper-efsm-2/scan.dump \
         --device "$uart_dev" --out uart.cand --timeout 60 2>uart-scan.txt \
     && "$TOOL" decode --plan sim-paper-efsm-2/plan.bin --dump sim-paper-efsm-2/scan.dump --out uart-host.cand \
@@ -182,7 +192,7 @@ net_scan() {
 }
 if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] \
     && "$FSM" camera info --device "$net_dev" >net-info.txt 2>&1 \
-    && grep -q '^max pixels per row *2048' net-info.txt; then
+    && grep -q '^max pixels per row *4096' net-info.txt; then
     ok "fsm camera info over the firmware's Ethernet (QEMU GEM0, smoltcp, $net_dev): $(head -n1 net-console.txt | cut -c1-60)"
 else
     cat net-console.txt net-qemu.txt net-info.txt 2>/dev/null || true
@@ -288,7 +298,7 @@ board_up=0
 net_dev="tcp://127.0.0.1:$board_port"
 if [ "$sim_ok" = 1 ] && [ "$board_up" = 1 ] \
     && "$FSM" camera info --device "$net_dev" >board-info.txt 2>&1 \
-    && grep -q '^max pixels per row *2048' board-info.txt; then
+    && grep -q '^max pixels per row *4096' board-info.txt; then
     ok "raw binary booted as by U-Boot, no debugger: console on UART1, fsm camera info over Ethernet at 10.0.2.16:7071"
 else
     cat board-console.txt board-qemu.txt board-info.txt 2>/dev/null || true

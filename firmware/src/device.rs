@@ -16,7 +16,7 @@ use fsm_protocol::{
 };
 
 use crate::batch::Sink;
-use crate::limits::{CANDIDATE_CAPACITY, LANES};
+use crate::limits::{CANDIDATE_CAPACITY, LANES, MAX_ROW_SAMPLES};
 use crate::memory::Memory;
 use crate::scan::{self, NoProbe, RowBuffers, RowFailure, Scan, ScanError};
 
@@ -126,8 +126,10 @@ impl<'m> Device<'m> {
         Capacity {
             tables: m.tables.len(),
             scratch: m.scratch.len(),
-            samples: m.samples.len(),
-            width: m.pixels.len().min(m.samples.len()),
+            // A row arrives whole in `rx` (a raw row leaves whole from `record`); only a
+            // slice of it is unpacked into `samples` (`scan::decode_row`).
+            samples: (m.record.len().saturating_sub(8) / 2).min(MAX_ROW_SAMPLES),
+            width: m.pixels.len(),
             // The leading delimiter is an empty frame; the buffer holds the rest but the end.
             frame: m.rx.len() + 2,
         }
@@ -447,7 +449,7 @@ fn handle<'r>(
                 RowOutput::Candidates => {
                     scan::decode_row(decoder, &s.scan, input, work, record, &mut NoProbe)
                 }
-                RowOutput::Raw => scan::raw_row(&s.scan, input, work.samples, record),
+                RowOutput::Raw => scan::raw_row(&s.scan, input, record),
             };
             match result {
                 Ok((_, len)) => {

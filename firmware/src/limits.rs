@@ -8,13 +8,17 @@
 //!   a scan over power-of-two transforms and periods (BFSM, 8192 columns, N 4096, Hann window)
 //!   1,445,888. A plan that needs more is refused (`DeviceError::PlanTooLarge`);
 //! - **rows of at most [`MAX_WIDTH`] pixels and [`MAX_ROW_SAMPLES`] samples** (`W·M`): the paper's
-//!   BFSM plan (770 frames with the dark and white references) up to 1361 pixels, its EFSM
-//!   plans (78 or 154 frames) up to the full 2048;
+//!   BFSM plan (770 frames with the dark and white references) and its EFSM plans (78 or 154
+//!   frames) up to the full 4096 pixels. A row arrives whole (one record, in the receive
+//!   buffer) but is decoded in slices of [`SLICE_SAMPLES`] samples (`scan::decode_row`): only
+//!   the slice is unpacked, so a wide row costs its record's bytes, not twice them. Plans of
+//!   more than [`MAX_FRAMES`] frames are refused (a slice holds at least [`LANES`] pixels);
 //! - **up to [`CANDIDATE_CAPACITY`] candidates per pixel** (more are dropped weakest first and
 //!   the pixel is flagged `TRUNCATED`, as on the host).
 //!
-//! `memory::MEMORY_BYTES` is the size of all buffers together (about 15.3 MB, in `.bss`); the
-//! build prints the image's text/data/bss (`scripts/build-arm.sh`).
+//! `memory::MEMORY_BYTES` is the size of all buffers together (about 27 MB, in `.bss`; every
+//! Zynq-7000 board has at least 256 MB of DDR, QEMU's model 128 MiB); the build prints the
+//! image's text/data/bss (`scripts/build-arm.sh`).
 
 use fsm_core::plan::MAX_TRANSFORM_SIZE;
 use fsm_core::wire::candidates::{CANDIDATE_LEN, PIXEL_LEN, RECORD_OVERHEAD};
@@ -22,9 +26,15 @@ use fsm_core::PixelCandidates;
 use fsm_protocol::frame::max_frame_len;
 
 /// Most pixels per row.
-pub const MAX_WIDTH: usize = 2048;
-/// Most samples per row, `W·M` (2 MiB of `u16`).
-pub const MAX_ROW_SAMPLES: usize = 1 << 20;
+pub const MAX_WIDTH: usize = 4096;
+/// Most samples per row, `W·M`: 4096 pixels of the paper's BFSM plan (770 frames), 6.3 MB of
+/// `u16` in a row record.
+pub const MAX_ROW_SAMPLES: usize = MAX_WIDTH * 770;
+/// Samples of the slice of a row unpacked at once (512 KiB of `u16`): 340 pixels of the
+/// paper's BFSM plan, 1,702 of its two-group EFSM plan.
+pub const SLICE_SAMPLES: usize = 1 << 18;
+/// Most frames per row: a slice holds [`LANES`] pixels at least.
+pub const MAX_FRAMES: usize = SLICE_SAMPLES / LANES;
 /// Most candidates per pixel; the `capacity` of every candidate header the camera writes.
 /// `fsm decode` must decode with the same capacity for its files to be byte-identical.
 pub const CANDIDATE_CAPACITY: usize = 16;
@@ -73,6 +83,7 @@ pub const MAX_RESPONSE_FRAME: usize = max_frame_len(MAX_RECORD + MESSAGE_OVERHEA
 
 // Sizes travel as u32 in the protocol.
 const _: () = assert!(MAX_WIDTH <= MAX_ROW_SAMPLES && MAX_ROW_SAMPLES <= u32::MAX as usize);
+const _: () = assert!(MAX_FRAMES >= 1 && MAX_FRAMES * LANES <= SLICE_SAMPLES);
 const _: () = assert!(CANDIDATE_CAPACITY <= u8::MAX as usize);
 
 #[cfg(test)]
@@ -92,13 +103,14 @@ mod tests {
                 assert!(Decoder::scratch_len_lanes::<LANES>(&plan) <= MAX_SCRATCH_FLOATS);
             }
         }
-        // The widths the module docs promise.
-        assert_eq!(
-            MAX_ROW_SAMPLES / ScanPlan::paper_bfsm().sequence_len(),
-            1361
-        );
+        // The widths and slices the module docs promise.
+        let bfsm = ScanPlan::paper_bfsm().sequence_len();
+        assert_eq!(MAX_ROW_SAMPLES / bfsm, 4096);
+        assert_eq!(SLICE_SAMPLES / bfsm, 340);
         let efsm2 = ScanPlan::paper_efsm(GroupCount::Two).sequence_len();
         assert!(MAX_WIDTH * efsm2 <= MAX_ROW_SAMPLES);
+        assert_eq!(SLICE_SAMPLES / efsm2, 1702);
+        assert!(bfsm <= MAX_FRAMES);
     }
 
     #[test]

@@ -9,7 +9,8 @@ pub struct Memory<'m> {
     pub tables: &'m mut [f32],
     /// Decoder scratch, reused from pixel to pixel.
     pub scratch: &'m mut [f32],
-    /// Samples of the current row, sample-major (`frames[i·W + x]`).
+    /// Samples of the slice of the current row being decoded, sample-major (`frames[i·S + x]`
+    /// for a slice of `S` pixels; `scan::decode_row`).
     pub samples: &'m mut [u16],
     /// Candidates of every pixel of the current row.
     pub pixels: &'m mut [Pixel],
@@ -28,7 +29,7 @@ pub const MEMORY_BYTES: usize = core::mem::size_of::<Storage>();
 pub struct Storage {
     tables: [f32; MAX_TABLE_FLOATS],
     scratch: [f32; MAX_SCRATCH_FLOATS],
-    samples: [u16; MAX_ROW_SAMPLES],
+    samples: [u16; SLICE_SAMPLES],
     pixels: [Pixel; MAX_WIDTH],
     record: [u8; MAX_RECORD],
     rx: [u8; MAX_REQUEST_FRAME],
@@ -42,7 +43,7 @@ impl Storage {
         Storage {
             tables: [0.0; MAX_TABLE_FLOATS],
             scratch: [0.0; MAX_SCRATCH_FLOATS],
-            samples: [0; MAX_ROW_SAMPLES],
+            samples: [0; SLICE_SAMPLES],
             pixels: [const { Pixel::new() }; MAX_WIDTH],
             record: [0; MAX_RECORD],
             rx: [0; MAX_REQUEST_FRAME],
@@ -82,7 +83,7 @@ impl Default for HostStorage {
         HostStorage {
             tables: vec![0.0; MAX_TABLE_FLOATS],
             scratch: vec![0.0; MAX_SCRATCH_FLOATS],
-            samples: vec![0; MAX_ROW_SAMPLES],
+            samples: vec![0; SLICE_SAMPLES],
             pixels: vec![Pixel::new(); MAX_WIDTH],
             record: vec![0; MAX_RECORD],
             rx: vec![0; MAX_REQUEST_FRAME],

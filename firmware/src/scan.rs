@@ -1,17 +1,20 @@
 //! The loop body: one row-dump record in, that row's candidate record out.
 //!
-//! A thin layer over `fsm_core`: the record is checked and unpacked by
-//! `wire::row_dump::decode_record`, decoded by `Decoder::decode_row`, and packed by
+//! A thin layer over `fsm_core`: the record is checked by `wire::row_dump::decode_record`,
+//! unpacked and decoded slice by slice of pixels (`Decoder::decode_row_lanes`: the decoder is
+//! per pixel, so a slice's candidates are the whole row's), and packed by
 //! `wire::candidates::encode_record`, so the bytes are the ones `fsm decode` writes on the host.
+//! Only a slice's samples are ever unpacked ([`crate::limits::SLICE_SAMPLES`]): a 4096-pixel BFSM
+//! row needs its 6.3 MB record, not that again as samples.
 
 use core::fmt;
 
 use fsm_core::wire::candidates::{self, CandidateHeader};
-use fsm_core::wire::row_dump::{self, RowDumpHeader};
+use fsm_core::wire::row_dump::{self, RowDumpHeader, RowRecord};
 use fsm_core::wire::WireError;
 use fsm_core::{Decoder, Row, RowError, ScanPlan};
 
-use crate::limits::{Pixel, CANDIDATE_CAPACITY, LANES, MAX_ROW_SAMPLES, MAX_WIDTH};
+use crate::limits::{Pixel, CANDIDATE_CAPACITY, LANES, MAX_FRAMES, MAX_ROW_SAMPLES, MAX_WIDTH};
 
 /// The geometry of a scan and the headers of its two kinds of streams.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,7 +60,10 @@ impl Scan {
         }
         let frames = plan.sequence_len();
         let samples = (width as usize).checked_mul(frames);
-        if width as usize > MAX_WIDTH || samples.is_none_or(|s| s > MAX_ROW_SAMPLES) {
+        if width as usize > MAX_WIDTH
+            || frames > MAX_FRAMES
+            || samples.is_none_or(|s| s > MAX_ROW_SAMPLES)
+        {
             return Err(ScanError::TooLarge {
                 width,
                 frames: frames as u32,
@@ -143,8 +149,8 @@ impl fmt::Display for ScanError {
             }
             ScanError::TooLarge { width, frames } => write!(
                 f,
-                "rows of {width} pixels x {frames} frames do not fit (at most {MAX_WIDTH} pixels \
-                 and {MAX_ROW_SAMPLES} samples per row)"
+                "rows of {width} pixels x {frames} frames do not fit (at most {MAX_WIDTH} pixels, \
+                 {MAX_FRAMES} frames and {MAX_ROW_SAMPLES} samples per row)"
             ),
         }
     }
@@ -190,9 +196,9 @@ pub trait Probe {
     fn before(&mut self, _x: usize) {}
     /// Just after pixel `x` was decoded into `pixel`.
     fn after(&mut self, _x: usize, _pixel: &Pixel) {}
-    /// Just before a row is decoded in one call (`PER_PIXEL` false).
+    /// Just before a slice of a row is decoded in one call (`PER_PIXEL` false).
     fn before_row(&mut self) {}
-    /// Just after a row was decoded in one call (`PER_PIXEL` false).
+    /// Just after a slice of a row was decoded in one call (`PER_PIXEL` false).
     fn after_row(&mut self) {}
     /// After the decoder's tables were built, before the first row.
     fn tables_built(&mut self) {}
@@ -211,14 +217,16 @@ impl Probe for NoProbe {
 pub struct RowBuffers<'a> {
     /// `Decoder::scratch_len` floats or more.
     pub scratch: &'a mut [f32],
-    /// `W·M` samples or more.
+    /// The samples of a slice of the row: `M` (frames per row) or more; a slice is as many
+    /// pixels as fit, a multiple of [`LANES`] when more than that fit.
     pub samples: &'a mut [u16],
     /// `W` pixels or more.
     pub pixels: &'a mut [Pixel],
 }
 
-/// Checks and unpacks one row-dump record into `buffers.samples`; returns its row index.
-pub fn unpack_row(scan: &Scan, record: &[u8], samples: &mut [u16]) -> Result<u32, RowFailure> {
+/// Checks one row-dump record against the scan (length, CRC, row range): its row index and
+/// samples, still bytes.
+pub fn check_row<'r>(scan: &Scan, record: &'r [u8]) -> Result<RowRecord<'r>, RowFailure> {
     let expected = scan.record_len();
     if record.len() != expected {
         let row = record
@@ -230,16 +238,32 @@ pub fn unpack_row(scan: &Scan, record: &[u8], samples: &mut [u16]) -> Result<u32
             got: record.len(),
         });
     }
-    let checked = row_dump::decode_record(&scan.rows, record).map_err(RowFailure::Wire)?;
-    let n = scan.rows.samples_per_row();
-    checked
-        .copy_to(&mut samples[..n])
-        .map_err(RowFailure::Wire)?;
-    Ok(checked.row)
+    row_dump::decode_record(&scan.rows, record).map_err(RowFailure::Wire)
+}
+
+/// Pixels per slice for rows of `width` pixels and `frames` frames in `samples` samples of
+/// room: all that fit, rounded down to whole lanes when more than one lane fits. `None` when
+/// not even one pixel fits.
+pub fn slice_width(width: usize, frames: usize, samples: usize) -> Option<usize> {
+    let fit = samples / frames.max(1);
+    let fit = if fit >= LANES { fit - fit % LANES } else { fit };
+    (fit > 0).then(|| fit.min(width))
+}
+
+/// Unpacks pixels `x0..x0 + n` of a row of `width` pixels into `out` (`M·n` samples,
+/// sample-major: `out[i·n + x]`).
+fn unpack_slice(record: &RowRecord<'_>, width: usize, x0: usize, n: usize, out: &mut [u16]) {
+    for (i, frame) in out.chunks_exact_mut(n).enumerate() {
+        let first = i * width + x0;
+        for (x, sample) in frame.iter_mut().enumerate() {
+            *sample = record.sample(first + x);
+        }
+    }
 }
 
 /// Decodes one row-dump record and writes its candidate record into `out`; returns the row
-/// index and the record's length.
+/// index and the record's length. The row is unpacked and decoded slice by slice
+/// ([`slice_width`]); the candidates do not depend on the slices.
 pub fn decode_row<P: Probe>(
     decoder: &Decoder<'_>,
     scan: &Scan,
@@ -248,47 +272,196 @@ pub fn decode_row<P: Probe>(
     out: &mut [u8],
     probe: &mut P,
 ) -> Result<(u32, usize), RowFailure> {
-    let row = unpack_row(scan, record, buffers.samples)?;
+    let record = check_row(scan, record)?;
+    let row = record.row;
     let width = scan.rows.width as usize;
-    let n = scan.rows.samples_per_row();
-    let frames = Row {
-        frames: &buffers.samples[..n],
-        width,
-        bit_depth: scan.rows.bit_depth,
-        column_limits: None,
+    let frames = scan.rows.samples_per_row() / width;
+    let Some(slice) = slice_width(width, frames, buffers.samples.len()) else {
+        return Err(RowFailure::Output {
+            row,
+            error: WireError::BufferTooSmall {
+                what: "row slice samples",
+                needed: frames,
+                got: buffers.samples.len(),
+            },
+        });
     };
     let pixels = &mut buffers.pixels[..width];
-    let decoded = if P::PER_PIXEL {
-        pixels.iter_mut().enumerate().try_for_each(|(x, pixel)| {
-            probe.before(x);
-            decoder.decode_pixel(&frames, x, buffers.scratch, pixel)?;
-            probe.after(x, pixel);
-            Ok(())
-        })
-    } else {
-        probe.before_row();
-        let decoded =
-            decoder.decode_row_lanes::<LANES, CANDIDATE_CAPACITY>(&frames, buffers.scratch, pixels);
-        probe.after_row();
-        decoded
-    };
-    decoded.map_err(|error| RowFailure::Decode { row, error })?;
+    let mut x0 = 0;
+    while x0 < width {
+        let n = slice.min(width - x0);
+        let samples = &mut buffers.samples[..n * frames];
+        unpack_slice(&record, width, x0, n, samples);
+        let frames = Row {
+            frames: samples,
+            width: n,
+            bit_depth: scan.rows.bit_depth,
+            column_limits: None,
+        };
+        let pixels = &mut pixels[x0..x0 + n];
+        let decoded = if P::PER_PIXEL {
+            pixels.iter_mut().enumerate().try_for_each(|(x, pixel)| {
+                probe.before(x0 + x);
+                decoder.decode_pixel(&frames, x, buffers.scratch, pixel)?;
+                probe.after(x0 + x, pixel);
+                Ok(())
+            })
+        } else {
+            probe.before_row();
+            let decoded = decoder.decode_row_lanes::<LANES, CANDIDATE_CAPACITY>(
+                &frames,
+                buffers.scratch,
+                pixels,
+            );
+            probe.after_row();
+            decoded
+        };
+        decoded.map_err(|error| RowFailure::Decode { row, error })?;
+        x0 += n;
+    }
     let len =
         candidates::encode_record(&scan.candidates, row, pixels, out).map_err(RowFailure::Wire)?;
     Ok((row, len))
 }
 
 /// Checks one row-dump record and writes it again, as the camera streams a raw row from its
-/// sample memory (for decoding on the host); returns the row index and the record's length.
-pub fn raw_row(
-    scan: &Scan,
-    record: &[u8],
-    samples: &mut [u16],
-    out: &mut [u8],
-) -> Result<(u32, usize), RowFailure> {
-    let row = unpack_row(scan, record, samples)?;
-    let n = scan.rows.samples_per_row();
-    let len =
-        row_dump::encode_record(&scan.rows, row, &samples[..n], out).map_err(RowFailure::Wire)?;
-    Ok((row, len))
+/// sample memory (for decoding on the host): the checked record's bytes are the record
+/// `row_dump::encode_record` would write. Returns the row index and the record's length.
+pub fn raw_row(scan: &Scan, record: &[u8], out: &mut [u8]) -> Result<(u32, usize), RowFailure> {
+    let row = check_row(scan, record)?.row;
+    let Some(out) = out.get_mut(..record.len()) else {
+        return Err(RowFailure::Output {
+            row,
+            error: WireError::BufferTooSmall {
+                what: "raw row record",
+                needed: record.len(),
+                got: out.len(),
+            },
+        });
+    };
+    out.copy_from_slice(record);
+    Ok((row, record.len()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::limits::{MAX_FRAMES, SLICE_SAMPLES};
+    use crate::reference;
+    use crate::scene::MirrorScene;
+    use fsm_core::wire::HEADER_LEN;
+    use fsm_core::GroupCount;
+
+    #[test]
+    fn slices_are_whole_lanes_of_what_fits() {
+        assert_eq!(slice_width(4096, 770, SLICE_SAMPLES), Some(340));
+        assert_eq!(slice_width(100, 770, SLICE_SAMPLES), Some(100));
+        assert_eq!(slice_width(50, 10, 4 * LANES * 10 + 9), Some(4 * LANES));
+        assert_eq!(slice_width(50, 10, 3 * 10), Some(3.min(LANES)));
+        assert_eq!(slice_width(50, 10, 9), None);
+    }
+
+    #[test]
+    fn wide_rows_fit_and_wider_ones_are_refused_by_name() {
+        let bfsm = ScanPlan::paper_bfsm();
+        assert!(Scan::new(&bfsm, 4096, 2, 12).is_ok());
+        let refused = Scan::new(&bfsm, 4097, 2, 12).unwrap_err();
+        assert_eq!(
+            refused,
+            ScanError::TooLarge {
+                width: 4097,
+                frames: 770
+            }
+        );
+        assert!(refused.to_string().contains("4097 pixels x 770 frames"));
+        // Every valid plan's rows fit a slice of one lane (MAX_FRAMES is a guard): the
+        // largest, BFSM with N = 4096 (limits.rs), has far fewer frames.
+        let mut largest = ScanPlan::paper_bfsm();
+        largest.projector_columns = 8192;
+        largest.band.period_columns = 16384;
+        largest.band.count = 4096;
+        largest.transform_size = 4096;
+        let largest = largest.with_clean();
+        assert_eq!(largest.validate(), Ok(()));
+        assert!(largest.sequence_len() <= MAX_FRAMES);
+    }
+
+    /// The candidate file of a dump decoded with `slice` pixels per slice (the samples buffer
+    /// sized for it).
+    fn decode_in_slices(plan: &ScanPlan, dump: &[u8], slice: usize) -> Vec<u8> {
+        let header = RowDumpHeader::decode(dump).unwrap();
+        let scan = Scan::of_dump(plan, &header).unwrap();
+        let frames = plan.sequence_len();
+        let mut tables = vec![0.0; Decoder::tables_len(plan)];
+        let decoder = Decoder::new(plan, &mut tables).unwrap();
+        let mut scratch = vec![0.0; Decoder::scratch_len_lanes::<LANES>(plan)];
+        let mut samples = vec![0u16; slice * frames];
+        let mut pixels = vec![Pixel::new(); header.width as usize];
+        let mut buffers = RowBuffers {
+            scratch: &mut scratch,
+            samples: &mut samples,
+            pixels: &mut pixels,
+        };
+        let mut out = scan.candidates.encode().to_vec();
+        let mut record = vec![0u8; scan.candidates.max_record_len().unwrap()];
+        for input in dump[HEADER_LEN..].chunks_exact(scan.record_len()) {
+            let (_, len) = decode_row(
+                &decoder,
+                &scan,
+                input,
+                &mut buffers,
+                &mut record,
+                &mut NoProbe,
+            )
+            .unwrap();
+            out.extend_from_slice(&record[..len]);
+        }
+        out
+    }
+
+    #[test]
+    fn a_row_decoded_in_slices_is_the_whole_row_decoded_on_the_host() {
+        for plan in [
+            ScanPlan::paper_efsm(GroupCount::One),
+            ScanPlan::paper_efsm(GroupCount::Two),
+        ] {
+            // 37 pixels: slices of 1, 3, one lane, two lanes, and a last slice cut short.
+            let dump = MirrorScene::for_plan(&plan, 37, 3).dump(&plan);
+            let host = reference::decode_dump(&plan, &dump).unwrap();
+            let census = reference::census(&host).unwrap();
+            assert!(census.by_count[2..].iter().sum::<usize>() > 0, "{census:?}");
+            for slice in [1, 3, LANES, 2 * LANES, 37] {
+                let sliced = decode_in_slices(&plan, &dump, slice);
+                assert_eq!(reference::compare(&host, &sliced), Ok(()), "slice {slice}");
+                assert_eq!(host, sliced, "slice {slice}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_raw_row_is_the_record_it_came_from() {
+        let plan = ScanPlan::paper_efsm(GroupCount::Two);
+        let dump = MirrorScene::for_plan(&plan, 9, 2).dump(&plan);
+        let header = RowDumpHeader::decode(&dump).unwrap();
+        let scan = Scan::of_dump(&plan, &header).unwrap();
+        let input = &dump[HEADER_LEN..HEADER_LEN + scan.record_len()];
+        let mut out = vec![0u8; scan.record_len()];
+        assert_eq!(raw_row(&scan, input, &mut out), Ok((0, input.len())));
+        assert_eq!(out, input);
+        // Damaged: refused by the CRC, nothing written.
+        let mut bad = input.to_vec();
+        bad[10] ^= 1;
+        let mut out = vec![0u8; scan.record_len()];
+        assert!(matches!(
+            raw_row(&scan, &bad, &mut out),
+            Err(RowFailure::Wire(WireError::RecordCrc { row: 0, .. }))
+        ));
+        assert!(out.iter().all(|&b| b == 0));
+        // Too small an output buffer: named.
+        let mut small = vec![0u8; 10];
+        assert!(matches!(
+            raw_row(&scan, input, &mut small),
+            Err(RowFailure::Output { row: 0, .. })
+        ));
+    }
 }
