@@ -266,7 +266,8 @@ wait "$net_qemu" 2>/dev/null || true
 #     starts it (loaded at its load address, the PC there) with no debugger behind it (no
 #     semihosting), after the memory writes of its boot.cmd (`mw.l`: the Ethernet settings,
 #     here 10.0.2.16/24 port 7071). Console on UART1, `fsm camera info` and `fsm camera scan`
-#     over Ethernet byte-identical to the host's decode (BFSM and two-group EFSM); then a panic:
+#     over Ethernet byte-identical to the host's decode (BFSM and two-group EFSM); the same image
+#     made with `--address dhcp` takes QEMU's DHCP lease and answers over it; then a panic:
 #     reported on UART1, the SoC reset (which ends QEMU under -no-reboot), and booted again when
 #     QEMU lets the reset restart it.
 images="$WORK/images"
@@ -315,6 +316,28 @@ for p in paper-bfsm paper-efsm-2; do
 done
 kill "$board_qemu" 2>/dev/null || true
 wait "$board_qemu" 2>/dev/null || true
+# The same image with `--address dhcp`: QEMU's user network leases 10.0.2.15/24 to the camera.
+dhcp_images="$WORK/images-dhcp"
+mapfile -t dhcp_words < <("$S/image-arm.sh" --elf "$ELF" --out "$dhcp_images" --address dhcp --port 7071 >/dev/null 2>&1 \
+    && sed -n 's/^mw.l \(0x[0-9a-f]*\) \(0x[0-9a-f]*\)$/--word\n\1=\2/p' "$dhcp_images/boot.cmd")
+dhcp_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+"$S/run-qemu.sh" --board --serve-net "$dhcp_port" --guest 10.0.2.15:7071 \
+    ${dhcp_words[@]+"${dhcp_words[@]}"} "$dhcp_images/fsm-firmware.bin" >dhcp-console.txt 2>dhcp-qemu.txt &
+dhcp_qemu=$!
+for _ in $(seq 150); do
+    grep -q '^SERVE NET' dhcp-console.txt && break
+    sleep 0.2
+done
+if [ "${#dhcp_words[@]}" = 10 ] && grep -q '^SERVE NET 10.0.2.15:7071 (/24 leased by DHCP' dhcp-console.txt \
+    && "$FSM" camera info --device "tcp://127.0.0.1:$dhcp_port" >dhcp-info.txt 2>&1 \
+    && grep -q '^max pixels per row *4096' dhcp-info.txt; then
+    ok "raw binary, no debugger, --address dhcp: 10.0.2.15/24 leased from QEMU's DHCP server, fsm camera info over it"
+else
+    cat dhcp-console.txt dhcp-qemu.txt dhcp-info.txt 2>/dev/null || true
+    bad "raw binary, no debugger, --address dhcp"
+fi
+kill "$dhcp_qemu" 2>/dev/null || true
+wait "$dhcp_qemu" 2>/dev/null || true
 set +e
 "$S/run-qemu.sh" --board --timeout 30 --selftest panic "$images/fsm-firmware.bin" >board-panic.txt 2>&1
 rc=$?

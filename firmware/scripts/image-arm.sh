@@ -21,8 +21,9 @@
 # Usage: scripts/image-arm.sh [options]
 #   --out DIR        where to write (default: <firmware>/target/images)
 #   --elf FILE       package this ELF instead of building one (scripts/build-arm.sh)
-#   --address A/P    the camera's IPv4 address and prefix length (default 192.168.1.10/24)
-#   --gateway A      its default route (default: none)
+#   --address A/P    the camera's IPv4 address and prefix length (default 192.168.1.10/24), or
+#                    `dhcp`: address, prefix and route leased from the network's DHCP server
+#   --gateway A      its default route (default: none; not with dhcp)
 #   --port N         the protocol's TCP port (default 7070)
 #   --fsbl FILE      the board's FSBL ELF (from Vitis, for the board's hardware design): also
 #                    make BOOT.BIN with bootgen
@@ -63,15 +64,23 @@ ipv4() {
     [ -z "${extra:-}" ] || return 1
     echo $(( (a << 24) | (b << 16) | (c << 8) | d ))
 }
-addr="${ADDRESS%/*}"
-prefix=24
-[ "$addr" = "$ADDRESS" ] || prefix="${ADDRESS#*/}"
-addr_word="$(ipv4 "$addr")" || { echo "image-arm: --address $ADDRESS is not A.B.C.D/P" >&2; exit 2; }
-case "$prefix" in ''|*[!0-9]*) echo "image-arm: prefix /$prefix is not a number" >&2; exit 2 ;; esac
-[ "$prefix" -ge 1 ] && [ "$prefix" -le 32 ] || { echo "image-arm: prefix /$prefix is not 1..32" >&2; exit 2; }
-[ "$addr_word" != 0 ] && [ "$addr_word" != 4294967295 ] \
-    || { echo "image-arm: --address $addr cannot be a camera's address" >&2; exit 2; }
 gateway_word=0
+if [ "$ADDRESS" = dhcp ]; then
+    # The descriptor's address 0xFFFFFFFF asks for DHCP (firmware/src/layout.rs).
+    addr=dhcp
+    addr_word=4294967295
+    prefix=0
+    [ -z "$GATEWAY" ] || { echo "image-arm: --gateway goes with a static --address, not dhcp" >&2; exit 2; }
+else
+    addr="${ADDRESS%/*}"
+    prefix=24
+    [ "$addr" = "$ADDRESS" ] || prefix="${ADDRESS#*/}"
+    addr_word="$(ipv4 "$addr")" || { echo "image-arm: --address $ADDRESS is not A.B.C.D/P or dhcp" >&2; exit 2; }
+    case "$prefix" in ''|*[!0-9]*) echo "image-arm: prefix /$prefix is not a number" >&2; exit 2 ;; esac
+    [ "$prefix" -ge 1 ] && [ "$prefix" -le 32 ] || { echo "image-arm: prefix /$prefix is not 1..32" >&2; exit 2; }
+    [ "$addr_word" != 0 ] && [ "$addr_word" != 4294967295 ] \
+        || { echo "image-arm: --address $addr cannot be a camera's address" >&2; exit 2; }
+fi
 if [ -n "$GATEWAY" ]; then
     gateway_word="$(ipv4 "$GATEWAY")" || { echo "image-arm: --gateway $GATEWAY is not A.B.C.D" >&2; exit 2; }
 fi
@@ -130,9 +139,14 @@ load_str="$(printf '0x%08x' "$load")"
 # gateway, as five little-endian words at 0x03ffffc0.
 words=(0x2054454e "$PORT" "$addr_word" "$prefix" "$gateway_word")
 notes=('"NET "' "TCP port $PORT" "address $addr" "prefix /$prefix" "gateway ${GATEWAY:-none}")
+[ "$addr" != dhcp ] || notes[2]="address 0xffffffff: ask a DHCP server"
 {
     echo "# fsm-firmware $version, started by U-Boot on a Zynq-7000 board (firmware/scripts/image-arm.sh)."
-    echo "# Console: UART1, 115200 8N1. Then: fsm camera info --device tcp://$addr:$PORT"
+    if [ "$addr" = dhcp ]; then
+        echo "# Console: UART1, 115200 8N1; its SERVE NET line gives the leased address A. Then: fsm camera info --device tcp://A:$PORT"
+    else
+        echo "# Console: UART1, 115200 8N1. Then: fsm camera info --device tcp://$addr:$PORT"
+    fi
     echo "setenv fsm_load $load_str"
     echo "# From the SD card's first partition (or over TFTP: tftpboot \${fsm_load} fsm-firmware.bin)"
     echo "fatload mmc 0 \${fsm_load} fsm-firmware.bin"
@@ -194,7 +208,11 @@ fi
 {
     echo "fsm-firmware $version for armv7a-none-eabihf (Zynq-7000 Cortex-A9)"
     echo "fsm-firmware.bin: $bin_len bytes, load address $load_str, entry $load_str (reset vector; _start at $entry_hex)"
-    echo "Ethernet: $addr/$prefix port $PORT gateway ${GATEWAY:-none} (boot.cmd's NET descriptor)"
+    if [ "$addr" = dhcp ]; then
+        echo "Ethernet: address, prefix and route by DHCP, port $PORT (boot.cmd's NET descriptor)"
+    else
+        echo "Ethernet: $addr/$prefix port $PORT gateway ${GATEWAY:-none} (boot.cmd's NET descriptor)"
+    fi
     echo "console: UART1 115200 8N1"
 } >"$OUT.partial/image.txt"
 

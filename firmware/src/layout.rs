@@ -126,8 +126,9 @@ const _: () = assert!(
 
 /// Address of the Ethernet descriptor, five `u32`s: magic [`NET_MAGIC`] ("NET "), the TCP port
 /// (0: [`fsm_protocol::DEFAULT_TCP_PORT`]), the IPv4 address as `a << 24 | b << 16 | c << 8 | d`
-/// (0: [`NetConfig::DEFAULT`]'s, with its prefix and gateway), the prefix length (0: 24), the
-/// gateway in the same form (0: none, or the default's with the default address). Written by
+/// (0: [`NetConfig::DEFAULT`]'s, with its prefix and gateway; `0xFFFF_FFFF`: ask a DHCP server),
+/// the prefix length (0: 24), the gateway in the same form (0: none, or the default's with the
+/// default address). Written by
 /// `scripts/run-qemu.sh --serve-net PORT`: the firmware then serves the protocol over GEM0 and
 /// TCP, connection after connection, and makes no semihosting call after its `SERVE NET` line.
 pub const NET_DESC_ADDR: usize = 0x03FF_FFC0;
@@ -145,6 +146,9 @@ pub struct NetConfig {
     pub prefix_len: u8,
     /// The default route, if any.
     pub gateway: Option<[u8; 4]>,
+    /// Address, prefix and route come from a DHCP server (`arm::net`); the three fields above
+    /// hold the lease once there is one (0.0.0.0/0 before).
+    pub dhcp: bool,
 }
 
 impl NetConfig {
@@ -156,11 +160,22 @@ impl NetConfig {
         address: [10, 0, 2, 15],
         prefix_len: 24,
         gateway: Some([10, 0, 2, 2]),
+        dhcp: false,
+    };
+
+    /// Ask a DHCP server, on the protocol's port.
+    pub const DHCP: NetConfig = NetConfig {
+        port: fsm_protocol::DEFAULT_TCP_PORT,
+        address: [0, 0, 0, 0],
+        prefix_len: 0,
+        gateway: None,
+        dhcp: true,
     };
 }
 
 /// The configuration from a descriptor's five words, if the magic matches and the values are
-/// valid (a port up to 65535, a prefix up to 32, an address that is no broadcast address).
+/// valid (a port up to 65535, a prefix up to 32, an address that is no broadcast address, which
+/// asks for DHCP instead).
 pub fn net_from_descriptor(words: [u32; 5]) -> Option<NetConfig> {
     let [magic, port, address, prefix, gateway] = words;
     if magic != NET_MAGIC || port > 0xFFFF || prefix > 32 {
@@ -178,13 +193,17 @@ pub fn net_from_descriptor(words: [u32; 5]) -> Option<NetConfig> {
         });
     }
     if address == u32::MAX {
-        return None;
+        return Some(NetConfig {
+            port,
+            ..NetConfig::DHCP
+        });
     }
     Some(NetConfig {
         port,
         address: address.to_be_bytes(),
         prefix_len: if prefix == 0 { 24 } else { prefix as u8 },
         gateway: (gateway != 0).then(|| gateway.to_be_bytes()),
+        dhcp: false,
     })
 }
 
@@ -273,7 +292,8 @@ mod tests {
                 port: 7070,
                 address: [192, 168, 1, 10],
                 prefix_len: 16,
-                gateway: Some([192, 168, 1, 1])
+                gateway: Some([192, 168, 1, 1]),
+                dhcp: false,
             }
         );
         let c = net_from_descriptor([NET_MAGIC, 0, 0xC0A8_010A, 0, 0]).unwrap();
@@ -284,7 +304,15 @@ mod tests {
             net_from_descriptor([NET_MAGIC, 0, 0xC0A8_010A, 33, 0]),
             None
         );
-        assert_eq!(net_from_descriptor([NET_MAGIC, 0, u32::MAX, 0, 0]), None);
+        let c = net_from_descriptor([NET_MAGIC, 7071, u32::MAX, 0, 0]).unwrap();
+        assert_eq!(
+            c,
+            NetConfig {
+                port: 7071,
+                ..NetConfig::DHCP
+            }
+        );
+        assert!(c.dhcp);
     }
 
     #[test]

@@ -123,16 +123,23 @@ mod fw {
         let Some(net) = Net::new(gem, MAC, config, timeouts) else {
             panic!("TCP buffers taken twice")
         };
-        let [a, b, c, d] = config.address;
+        // With DHCP: the lease's address (or 0.0.0.0 when none came in time).
+        let served = net.config();
+        let [a, b, c, d] = served.address;
         let m = MAC;
         hprintln!(
-            "SERVE NET {}.{}.{}.{}:{} (/{}, MAC {:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}, {}): the host protocol over TCP, connection after connection",
+            "SERVE NET {}.{}.{}.{}:{} (/{}{}, MAC {:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}, {}): the host protocol over TCP, connection after connection",
             a,
             b,
             c,
             d,
-            config.port,
-            config.prefix_len,
+            served.port,
+            served.prefix_len,
+            match (served.dhcp, net.leased()) {
+                (false, _) => "",
+                (true, true) => " leased by DHCP",
+                (true, false) => ", no DHCP lease yet: still asking",
+            },
             m[0],
             m[1],
             m[2],

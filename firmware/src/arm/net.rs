@@ -1,7 +1,8 @@
 //! TCP/IP over GEM0 with smoltcp: the camera's Ethernet link to the host.
 //!
 //! One IPv4 address (static: `layout::NetConfig`, QEMU user networking's 10.0.2.15/24 by
-//! default), the protocol's port (`fsm_protocol::DEFAULT_TCP_PORT`, 7070) served to one host at
+//! default; or leased from a DHCP server, kept up to date as the lease renews, see
+//! [`Net::new`]), the protocol's port (`fsm_protocol::DEFAULT_TCP_PORT`, 7070) served to one host at
 //! a time, like the emulator: [`SOCKETS`] TCP sockets listen on it, so that while one host is
 //! served (or its connection closes) the next one's connection is accepted and waits, its
 //! first request in the socket's buffer, until the camera turns to it (a TCP backlog of
@@ -35,6 +36,7 @@ use core::ptr::addr_of_mut;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use smoltcp::iface::{Config, Interface, SocketHandle, SocketSet, SocketStorage};
+use smoltcp::socket::dhcpv4;
 use smoltcp::socket::tcp::{self, State};
 use smoltcp::time::Instant;
 use smoltcp::wire::{EthernetAddress, HardwareAddress, IpAddress, IpCidr, Ipv4Address};
@@ -55,8 +57,14 @@ pub const LINGER_TICKS: u64 = 1_000_000_000 / QEMU_NS_PER_GTIMER_TICK;
 /// TCP sockets listening on the port: the one served and one waiting host.
 pub const SOCKETS: usize = 2;
 
-/// The socket set's slots and the TCP buffers (taken once, by [`Net::new`]).
-static mut SOCKET_STORAGE: [SocketStorage<'static>; SOCKETS] = [SocketStorage::EMPTY; SOCKETS];
+/// How long [`Net::new`] waits for a DHCP lease before it serves without one (the line says
+/// so; the lease is taken whenever it comes): 10 s at QEMU's timer rate.
+pub const DHCP_WAIT_TICKS: u64 = 10_000_000_000 / QEMU_NS_PER_GTIMER_TICK;
+
+/// The socket set's slots (the TCP sockets and the DHCP client) and the TCP buffers (taken
+/// once, by [`Net::new`]).
+static mut SOCKET_STORAGE: [SocketStorage<'static>; SOCKETS + 1] =
+    [SocketStorage::EMPTY; SOCKETS + 1];
 static mut TCP_RX: [[u8; TCP_BUFFER_LEN]; SOCKETS] = [[0; TCP_BUFFER_LEN]; SOCKETS];
 static mut TCP_TX: [[u8; TCP_BUFFER_LEN]; SOCKETS] = [[0; TCP_BUFFER_LEN]; SOCKETS];
 static TAKEN: AtomicBool = AtomicBool::new(false);
@@ -100,6 +108,8 @@ pub struct Net {
     iface: Interface,
     sockets: SocketSet<'static>,
     tcp: [SocketHandle; SOCKETS],
+    /// The DHCP client, when the address is leased.
+    dhcp: Option<SocketHandle>,
     /// The socket served (or last served).
     current: usize,
     config: NetConfig,
@@ -109,8 +119,10 @@ pub struct Net {
 }
 
 impl Net {
-    /// The interface on `gem` with `config`'s address and route, listening on its port.
-    /// Returns `None` if the socket buffers are already taken.
+    /// The interface on `gem` with `config`'s address and route, listening on its port; with
+    /// `config.dhcp`, the address and route a DHCP server leases, waited for at most
+    /// [`DHCP_WAIT_TICKS`] (see [`Net::config`]). Returns `None` if the socket buffers are
+    /// already taken.
     pub fn new(
         mut gem: Gem,
         mac: [u8; 6],
@@ -124,17 +136,13 @@ impl Net {
         // TCP's initial sequence numbers: the start-up time is all the entropy there is.
         c.random_seed = global_timer_ticks() ^ 0x9E37_79B9_7F4A_7C15;
         let mut iface = Interface::new(c, &mut gem, now());
-        let [a, b, cc, d] = config.address;
-        iface.update_ip_addrs(|addrs| {
-            let _ = addrs.push(IpCidr::new(
-                IpAddress::Ipv4(Ipv4Address::new(a, b, cc, d)),
+        if !config.dhcp {
+            set_address(
+                &mut iface,
+                config.address,
                 config.prefix_len,
-            ));
-        });
-        if let Some([a, b, c, d]) = config.gateway {
-            let _ = iface
-                .routes_mut()
-                .add_default_ipv4_route(Ipv4Address::new(a, b, c, d));
+                config.gateway,
+            );
         }
         // SAFETY: these statics are referenced here only, once (`TAKEN`).
         let (storage, rx, tx) = unsafe {
@@ -159,11 +167,13 @@ impl Net {
             socket.set_nagle_enabled(false);
             sockets.add(socket)
         });
+        let dhcp = config.dhcp.then(|| sockets.add(dhcpv4::Socket::new()));
         let mut net = Net {
             gem,
             iface,
             sockets,
             tcp,
+            dhcp,
             current: 0,
             config,
             timeouts,
@@ -171,7 +181,19 @@ impl Net {
         };
         net.listen();
         net.poll();
+        let start = global_timer_ticks();
+        while net.dhcp.is_some()
+            && !net.leased()
+            && global_timer_ticks().wrapping_sub(start) < DHCP_WAIT_TICKS
+        {
+            net.poll();
+        }
         Some(net)
+    }
+
+    /// Whether the interface has an address: a static one, or a DHCP lease.
+    pub fn leased(&self) -> bool {
+        self.config.address != [0; 4]
     }
 
     /// The driver under the interface.
@@ -179,7 +201,8 @@ impl Net {
         &self.gem
     }
 
-    /// The configuration served.
+    /// The configuration served: with DHCP, the lease's address, prefix and route (0.0.0.0/0
+    /// while there is none).
     pub fn config(&self) -> NetConfig {
         self.config
     }
@@ -202,9 +225,25 @@ impl Net {
         (0..SOCKETS).any(|i| i != self.current && self.connected(i))
     }
 
-    /// Moves frames in and out and runs TCP's timers.
+    /// Moves frames in and out, runs TCP's timers and DHCP's: a lease taken, renewed with
+    /// other values or lost changes the interface's address and route at once.
     pub fn poll(&mut self) {
         let _ = self.iface.poll(now(), &mut self.gem, &mut self.sockets);
+        let Some(h) = self.dhcp else { return };
+        let lease = match self.sockets.get_mut::<dhcpv4::Socket>(h).poll() {
+            None => return,
+            Some(dhcpv4::Event::Configured(c)) => Some((
+                c.address.address().octets(),
+                c.address.prefix_len(),
+                c.router.map(|r| r.octets()),
+            )),
+            Some(dhcpv4::Event::Deconfigured) => None,
+        };
+        let (address, prefix_len, gateway) = lease.unwrap_or(([0; 4], 0, None));
+        set_address(&mut self.iface, address, prefix_len, gateway);
+        self.config.address = address;
+        self.config.prefix_len = prefix_len;
+        self.config.gateway = gateway;
     }
 
     /// Every socket not in use listens on the port.
@@ -251,6 +290,27 @@ impl Net {
         self.poll();
         self.listen();
         self.poll();
+    }
+}
+
+/// Gives `iface` the one address `address/prefix_len` (none for 0.0.0.0) and the default
+/// route `gateway`.
+fn set_address(iface: &mut Interface, address: [u8; 4], prefix_len: u8, gateway: Option<[u8; 4]>) {
+    let [a, b, c, d] = address;
+    iface.update_ip_addrs(|addrs| {
+        addrs.clear();
+        if address != [0; 4] {
+            let _ = addrs.push(IpCidr::new(
+                IpAddress::Ipv4(Ipv4Address::new(a, b, c, d)),
+                prefix_len,
+            ));
+        }
+    });
+    iface.routes_mut().remove_default_ipv4_route();
+    if let Some([a, b, c, d]) = gateway {
+        let _ = iface
+            .routes_mut()
+            .add_default_ipv4_route(Ipv4Address::new(a, b, c, d));
     }
 }
 
