@@ -35,7 +35,10 @@
 //! Candidate (16 bytes): f32 column, f32 amplitude (DN), u16 block, u8 groups (bit 0 group 1,
 //! bit 1 group 2), u8 source group (1 or 2), u8 peak rank, 3 reserved bytes (0).
 
-use super::{begin_header, crc32, open_header, seal_header, Reader, WireError, Writer, HEADER_LEN};
+use super::{
+    begin_header, check_record, open_header, seal_header, seal_record, stored_crc, Reader,
+    WireError, Writer, HEADER_LEN, RECORD_CRC_LEN,
+};
 use crate::candidate::{Candidate, GroupSet, PixelCandidates, PixelFlags};
 use crate::plan::sequence::Group;
 
@@ -181,8 +184,7 @@ pub fn encode_record<const K: usize>(
             w.put(&[0; 3]);
         }
     }
-    let crc = crc32(&out[..len - 4]);
-    out[len - 4..].copy_from_slice(&crc.to_le_bytes());
+    seal_record(out, len);
     Ok(len)
 }
 
@@ -228,28 +230,9 @@ pub fn decode_record<'a>(
             got: bytes.len(),
         });
     }
-    let stored = u32::from_le_bytes([
-        bytes[len - 4],
-        bytes[len - 3],
-        bytes[len - 2],
-        bytes[len - 1],
-    ]);
-    let computed = crc32(&bytes[..len - 4]);
-    if stored != computed {
-        return Err(WireError::RecordCrc {
-            what: WHAT,
-            row,
-            stored,
-            computed,
-        });
-    }
-    if row >= header.height {
-        return Err(WireError::RowOutOfRange {
-            what: WHAT,
-            row,
-            height: header.height,
-        });
-    }
+    let framed = &bytes[..len];
+    let body = &framed[..len - RECORD_CRC_LEN];
+    check_record(WHAT, header.height, row, &[body], stored_crc(framed))?;
     let record = CandidateRecord {
         row,
         payload: &bytes[8..len - 4],

@@ -319,3 +319,46 @@ fn seal_header(out: &mut [u8; HEADER_LEN]) {
     let crc = crc32(&out[..60]);
     out[60..].copy_from_slice(&crc.to_le_bytes());
 }
+
+/// Bytes of a record's CRC-32, its last field in every format.
+const RECORD_CRC_LEN: usize = 4;
+
+/// Ends a record of `len` bytes written at the start of `out`: its last 4 bytes become the
+/// CRC-32 of the bytes before them. The framing every record shares: row index first, CRC last.
+fn seal_record(out: &mut [u8], len: usize) {
+    let body = len - RECORD_CRC_LEN;
+    let crc = crc32(&out[..body]);
+    out[body..len].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// The CRC-32 stored in the last 4 bytes of `record` (at least 4 long).
+fn stored_crc(record: &[u8]) -> u32 {
+    let n = record.len();
+    u32::from_le_bytes([record[n - 4], record[n - 3], record[n - 2], record[n - 1]])
+}
+
+/// Checks a record's framing: the CRC-32 `stored` against its `parts` (the record's bytes
+/// before the CRC, in order), then its `row` against the `height` of the scan. Returns the
+/// row. The CRC comes first: a row index read from damaged bytes is not reported as out of
+/// range.
+fn check_record(
+    what: &'static str,
+    height: u32,
+    row: u32,
+    parts: &[&[u8]],
+    stored: u32,
+) -> Result<u32, WireError> {
+    let computed = crc32_parts(parts);
+    if stored != computed {
+        return Err(WireError::RecordCrc {
+            what,
+            row,
+            stored,
+            computed,
+        });
+    }
+    if row >= height {
+        return Err(WireError::RowOutOfRange { what, row, height });
+    }
+    Ok(row)
+}

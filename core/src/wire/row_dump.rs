@@ -33,7 +33,8 @@
 
 use super::PlanIdentity;
 use super::{
-    begin_header, crc32, crc32_parts, open_header, seal_header, WireError, Writer, HEADER_LEN,
+    begin_header, check_record, open_header, seal_header, seal_record, WireError, Writer,
+    HEADER_LEN,
 };
 use crate::plan::ScanPlan;
 
@@ -286,8 +287,7 @@ pub fn encode_record(
     for &s in samples {
         w.u16(s);
     }
-    let crc = crc32(&out[..len - 4]);
-    out[len - 4..].copy_from_slice(&crc.to_le_bytes());
+    seal_record(out, len);
     Ok(len)
 }
 
@@ -336,22 +336,11 @@ pub fn check_record_parts(
         });
     };
     let row = u32::from_le_bytes(row_bytes);
-    let stored = u32::from_le_bytes(crc);
-    let computed = crc32_parts(&[&row_bytes, samples]);
-    if stored != computed {
-        return Err(WireError::RecordCrc {
-            what: WHAT,
-            row,
-            stored,
-            computed,
-        });
-    }
-    if row >= header.height {
-        return Err(WireError::RowOutOfRange {
-            what: WHAT,
-            row,
-            height: header.height,
-        });
-    }
-    Ok(row)
+    check_record(
+        WHAT,
+        header.height,
+        row,
+        &[&row_bytes, samples],
+        u32::from_le_bytes(crc),
+    )
 }
