@@ -129,6 +129,9 @@ impl CandidateField {
     }
 }
 
+/// A path's step `r = (dx, dy)` from one pixel to the next, pixels.
+type Step = (i32, i32);
+
 /// The aggregation paths.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Paths {
@@ -144,9 +147,18 @@ impl Paths {
         self.directions().len() as u8
     }
 
-    fn directions(self) -> &'static [(i32, i32)] {
+    /// The directions of the raster sweep (the previous pixel `v − r` comes earlier in raster
+    /// order: `r` points down, or right along a row) and of the reverse sweep, each in the
+    /// order of [`Paths::directions`].
+    fn sweeps(self) -> (Vec<Step>, Vec<Step>) {
+        self.directions()
+            .iter()
+            .partition(|&&(dx, dy)| dy > 0 || (dy == 0 && dx > 0))
+    }
+
+    fn directions(self) -> &'static [Step] {
         // Horizontal, vertical, diagonal, then the knight's moves.
-        const DIRECTIONS: [(i32, i32); 16] = [
+        const DIRECTIONS: [Step; 16] = [
             (1, 0),
             (-1, 0),
             (0, 1),
@@ -239,59 +251,69 @@ pub struct Selection {
     pub indirect: Vec<f32>,
 }
 
-/// Minimises eq. 10 semi-globally; directions are aggregated in parallel.
+/// Minimises eq. 10 semi-globally.
+///
+/// The paths run in two sweeps over the image, each on its own thread ([`rayon::join`]): one in
+/// raster order for every direction whose previous pixel comes earlier in it, one in reverse
+/// raster order for the opposite directions. A sweep holds the path costs of its last three
+/// rows only (a knight's move reaches two rows back) and adds them per candidate in the
+/// directions' order; the choice takes the raster sweep's sum plus the reverse one's. The sums,
+/// so the choice, are the same bits for any number of threads.
 pub fn select(field: &CandidateField, params: &SelectionParams) -> Selection {
-    let data = data_costs(field);
-    let points = Coordinates::of(field);
-    // As many directions at a time as there are threads, their costs added in the directions'
-    // order: the sum, so the choice, is the same for any number of threads, and no more path
-    // buffers are alive than threads.
-    let mut total = vec![0.0f32; data.len()];
-    for directions in params
-        .paths
-        .directions()
-        .chunks(rayon::current_num_threads().max(1))
-    {
-        let paths: Vec<Vec<f32>> = directions
-            .par_iter()
-            .map(|&d| aggregate(field, &points, &data, params, d))
-            .collect();
-        for path in paths {
-            for (t, p) in total.iter_mut().zip(path) {
-                *t += p;
+    let (raster, reverse) = params.paths.sweeps();
+    let (ahead, back) = rayon::join(
+        || sweep(field, params, &raster, Order::Raster),
+        || sweep(field, params, &reverse, Order::Reverse),
+    );
+    let (w, h) = (field.width, field.height);
+    let starts = &field.starts;
+    // Rows in parallel from here on: a pixel's outcome depends on nothing another row writes.
+    let mut choice = vec![None; w * h];
+    choice
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, c) in row.iter_mut().enumerate() {
+                let i = y * w + x;
+                let (start, end) = (starts[i] as usize, starts[i + 1] as usize);
+                // The least cost; ties go to the lower index (candidates come strongest first).
+                let mut best: Option<(usize, f32)> = None;
+                for l in start..end {
+                    let cost = ahead[l] + back[l];
+                    match best {
+                        Some((_, least)) if least <= cost => {}
+                        _ => best = Some((l - start, cost)),
+                    }
+                }
+                *c = best.map(|(l, _)| l as u16);
             }
-        }
-    }
-    let pixels = field.width * field.height;
-    let mut choice = vec![None; pixels];
-    for (i, c) in choice.iter_mut().enumerate() {
-        let (start, end) = (field.starts[i] as usize, field.starts[i + 1] as usize);
-        // The least cost; ties go to the lower index (candidates come strongest first).
-        let costs = &total[start..end];
-        let best = (0..costs.len()).fold(None, |best: Option<usize>, l| match best {
-            Some(b) if costs[b] <= costs[l] => Some(b),
-            _ => Some(l),
         });
-        *c = best.map(|b| b as u16);
-    }
     if params.drop_isolated {
         choice = drop_isolated(field, &choice, 2.0 * params.epsilon_mm);
     }
-    let mut selection = Selection {
-        width: field.width,
-        height: field.height,
+    let mut direct = vec![0.0; w * h];
+    let mut indirect = vec![0.0; w * h];
+    direct
+        .par_chunks_mut(w.max(1))
+        .zip(indirect.par_chunks_mut(w.max(1)))
+        .enumerate()
+        .for_each(|(y, (direct, indirect))| {
+            for x in 0..w {
+                let i = y * w + x;
+                let labels = &field.labels[starts[i] as usize..starts[i + 1] as usize];
+                let all: f32 = labels.iter().map(|l| l.amplitude).sum();
+                let chosen = choice[i].map_or(0.0, |c| labels[c as usize].amplitude);
+                direct[x] = chosen;
+                indirect[x] = all - chosen;
+            }
+        });
+    Selection {
+        width: w,
+        height: h,
         choice,
-        direct: vec![0.0; pixels],
-        indirect: vec![0.0; pixels],
-    };
-    for i in 0..pixels {
-        let labels = &field.labels[field.starts[i] as usize..field.starts[i + 1] as usize];
-        let all: f32 = labels.iter().map(|l| l.amplitude).sum();
-        let direct = selection.choice[i].map_or(0.0, |c| labels[c as usize].amplitude);
-        selection.direct[i] = direct;
-        selection.indirect[i] = all - direct;
+        direct,
+        indirect,
     }
-    selection
 }
 
 /// Clears every choice that has chosen 8-neighbours but none within `reach_mm` of it.
@@ -306,156 +328,178 @@ fn drop_isolated(
         choice[i].map(|c| field.labels[field.starts[i] as usize + c as usize].point_mm)
     };
     let mut kept = choice.to_vec();
-    for y in 0..h {
-        for x in 0..w {
-            let Some(p) = point(x, y) else { continue };
-            let mut chosen_neighbours = 0;
-            let mut near = false;
-            for (dx, dy) in [
-                (-1, -1),
-                (0, -1),
-                (1, -1),
-                (-1, 0),
-                (1, 0),
-                (-1, 1),
-                (0, 1),
-                (1, 1),
-            ] {
-                let (nx, ny) = (x + dx, y + dy);
-                if nx < 0 || ny < 0 || nx >= w || ny >= h {
-                    continue;
+    kept.par_chunks_mut(w.max(1) as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            let y = y as i32;
+            for x in 0..w {
+                let Some(p) = point(x, y) else { continue };
+                let mut chosen_neighbours = 0;
+                let mut near = false;
+                for (dx, dy) in [
+                    (-1, -1),
+                    (0, -1),
+                    (1, -1),
+                    (-1, 0),
+                    (1, 0),
+                    (-1, 1),
+                    (0, 1),
+                    (1, 1),
+                ] {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                        continue;
+                    }
+                    if let Some(q) = point(nx, ny) {
+                        chosen_neighbours += 1;
+                        near |= distance_mm(&p, &q) <= reach_mm;
+                    }
                 }
-                if let Some(q) = point(nx, ny) {
-                    chosen_neighbours += 1;
-                    near |= distance_mm(&p, &q) <= reach_mm;
+                if chosen_neighbours > 0 && !near {
+                    row[x as usize] = None;
                 }
             }
-            if chosen_neighbours > 0 && !near {
-                kept[(y * w + x) as usize] = None;
-            }
-        }
-    }
+        });
     kept
 }
 
-/// `C(v, l) = −I_l / max I` per candidate.
-fn data_costs(field: &CandidateField) -> Vec<f32> {
-    let mut data = Vec::with_capacity(field.labels.len());
-    for i in 0..field.width * field.height {
-        let labels = &field.labels[field.starts[i] as usize..field.starts[i + 1] as usize];
-        let strongest = labels.iter().map(|l| l.amplitude).fold(0.0f32, f32::max);
-        for l in labels {
-            data.push(if strongest > 0.0 {
-                -l.amplitude / strongest
-            } else {
-                0.0
-            });
-        }
+/// `C(v, l) = −I_l / max I`: a candidate's data term, from its amplitude and its pixel's
+/// strongest.
+#[inline(always)]
+fn data_cost(amplitude: f32, strongest: f32) -> f32 {
+    if strongest > 0.0 {
+        -amplitude / strongest
+    } else {
+        0.0
     }
-    data
 }
 
-/// The candidates' points in the field's order, one list per coordinate (mm): the step costs
-/// of four candidates of a pixel are computed side by side, one vector lane each.
-struct Coordinates {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-}
-
-impl Coordinates {
-    fn of(field: &CandidateField) -> Self {
-        let axis = |k: usize| field.labels.iter().map(|l| l.point_mm[k]).collect();
-        Coordinates {
-            x: axis(0),
-            y: axis(1),
-            z: axis(2),
-        }
-    }
+/// The strongest amplitude among a pixel's candidates (0 for none).
+#[inline(always)]
+fn strongest(labels: &[Label]) -> f32 {
+    labels.iter().map(|l| l.amplitude).fold(0.0f32, f32::max)
 }
 
 /// Candidates of a pixel whose best predecessor is found at once, one lane each.
 const LANES: usize = 4;
 
-/// `L_r` of every candidate for direction `(dx, dy)`.
+/// The order a sweep visits pixels in.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Order {
+    /// Rows top to bottom, each left to right.
+    Raster,
+    /// Rows bottom to top, each right to left.
+    Reverse,
+}
+
+/// Rows of path costs a sweep keeps: the current one and two before (a knight's move).
+const ROWS_KEPT: usize = 3;
+
+/// `Σ_r L_r` per candidate over `directions`, added in their order, in one sweep over the image
+/// in `order` (every direction's previous pixel must come earlier in it).
 ///
 /// For each candidate `l` of a pixel, `min_{l'} (L_r(v − r, l') + S(l, l'))` runs over the
 /// previous pixel's candidates in their order, [`LANES`] candidates `l` at a time: each lane
-/// does the scalar operations of [`step_cost`] in the same order, so the path is the same,
-/// bit for bit, as one candidate at a time (`aggregate_one_at_a_time`, the test oracle).
-fn aggregate(
+/// does the scalar operations of [`step_cost`] in the same order, so every `L_r` is the same,
+/// bit for bit, as one candidate and one direction at a time (the test oracle). A pixel's
+/// points are loaded once for all the sweep's directions.
+fn sweep(
     field: &CandidateField,
-    points: &Coordinates,
-    data: &[f32],
     params: &SelectionParams,
-    (dx, dy): (i32, i32),
+    directions: &[Step],
+    order: Order,
 ) -> Vec<f32> {
-    let (w, h) = (field.width as i32, field.height as i32);
-    let mut path = vec![0.0f32; data.len()];
+    let (w, h) = (field.width, field.height);
+    let (starts, labels) = (&field.starts, &field.labels);
+    let mut sum = vec![0.0f32; labels.len()];
+    if directions.is_empty() || w == 0 || h == 0 {
+        return sum;
+    }
     let (beta, epsilon) = (params.beta_per_mm, params.epsilon_mm);
-    let starts = &field.starts;
-    // Visit rows (then columns) so that v − r is always visited before v.
-    let ys: Vec<i32> = if dy >= 0 {
-        (0..h).collect()
-    } else {
-        (0..h).rev().collect()
-    };
-    let xs: Vec<i32> = if dx >= 0 {
-        (0..w).collect()
-    } else {
-        (0..w).rev().collect()
-    };
-    for &y in &ys {
-        let py = y - dy;
-        for &x in &xs {
-            let i = (y * w + x) as usize;
+    let row_start = |y: usize| starts[y * w] as usize;
+    let widest = (0..h)
+        .map(|y| row_start(y + 1) - row_start(y))
+        .max()
+        .unwrap_or(0);
+    // Path costs of the rows kept, per direction: row `y`'s candidates (numbered from its
+    // first) at `((y % ROWS_KEPT) · directions + d) · widest`.
+    let mut kept = vec![0.0f32; ROWS_KEPT * directions.len() * widest];
+    let slot = |y: usize, d: usize| (y % ROWS_KEPT * directions.len() + d) * widest;
+    for step in 0..h {
+        let y = if order == Order::Raster {
+            step
+        } else {
+            h - 1 - step
+        };
+        let first_here = row_start(y);
+        for across in 0..w {
+            let x = if order == Order::Raster {
+                across
+            } else {
+                w - 1 - across
+            };
+            let i = y * w + x;
             let (vs, ve) = (starts[i] as usize, starts[i + 1] as usize);
             if vs == ve {
                 continue;
             }
-            let px = x - dx;
-            let (ps, pe) = if px < 0 || py < 0 || px >= w || py >= h {
-                (0, 0)
-            } else {
-                let p = (py * w + px) as usize;
-                (starts[p] as usize, starts[p + 1] as usize)
-            };
-            if ps == pe {
-                // A path starts here: at the border or after a pixel without candidates.
-                path[vs..ve].copy_from_slice(&data[vs..ve]);
-                continue;
-            }
-            let (before, here) = if ps < vs {
-                let (a, b) = path.split_at_mut(vs);
-                (&a[ps..pe], &mut b[..ve - vs])
-            } else {
-                let (a, b) = path.split_at_mut(ps);
-                (&b[..pe - ps], &mut a[vs..ve])
-            };
-            let floor = before.iter().copied().fold(f32::INFINITY, least);
-            let (bx, by, bz) = (&points.x[ps..pe], &points.y[ps..pe], &points.z[ps..pe]);
-            for first in (vs..ve).step_by(LANES) {
-                let n = (ve - first).min(LANES);
+            let here = &labels[vs..ve];
+            let strongest = strongest(here);
+            for first in (0..here.len()).step_by(LANES) {
+                let n = (here.len() - first).min(LANES);
                 // Unused lanes repeat the first candidate; their results are not stored.
-                let lane = |v: &[f32]| -> [f32; LANES] {
-                    std::array::from_fn(|k| v[first + if k < n { k } else { 0 }])
-                };
-                let (hx, hy, hz) = (lane(&points.x), lane(&points.y), lane(&points.z));
-                let mut best = [f32::INFINITY; LANES];
-                for j in 0..before.len() {
-                    let (tx, ty, tz, previous) = (bx[j], by[j], bz[j], before[j]);
+                let lane = |k: usize| &here[first + if k < n { k } else { 0 }];
+                let [hx, hy, hz]: [[f32; LANES]; 3] =
+                    std::array::from_fn(|axis| std::array::from_fn(|k| lane(k).point_mm[axis]));
+                let data: [f32; LANES] =
+                    std::array::from_fn(|k| data_cost(lane(k).amplitude, strongest));
+                let mut total = [0.0f32; LANES];
+                for (d, &(dx, dy)) in directions.iter().enumerate() {
+                    let (px, py) = (x as i32 - dx, y as i32 - dy);
+                    // The previous pixel's candidates in the field, and where their path costs
+                    // are kept.
+                    let (ps, pe, at) = if px < 0 || py < 0 || px >= w as i32 || py >= h as i32 {
+                        (0, 0, 0)
+                    } else {
+                        let (px, py) = (px as usize, py as usize);
+                        let p = py * w + px;
+                        let (ps, pe) = (starts[p] as usize, starts[p + 1] as usize);
+                        (ps, pe, slot(py, d) + ps - row_start(py))
+                    };
+                    let path = if ps == pe {
+                        // A path starts here: at the border or after a pixel without candidates.
+                        data
+                    } else {
+                        let previous = &kept[at..at + (pe - ps)];
+                        let floor = previous.iter().copied().fold(f32::INFINITY, least);
+                        let mut best = [f32::INFINITY; LANES];
+                        for (there, &cost) in labels[ps..pe].iter().zip(previous) {
+                            let [tx, ty, tz] = there.point_mm;
+                            for k in 0..LANES {
+                                let step =
+                                    step_cost(hx[k] - tx, hy[k] - ty, hz[k] - tz, beta, epsilon);
+                                best[k] = least(best[k], cost + step);
+                            }
+                        }
+                        std::array::from_fn(|k| data[k] + best[k] - floor)
+                    };
+                    let at = slot(y, d) + vs + first - first_here;
+                    // Element by element: a slice copy of at most four floats calls memcpy.
+                    #[allow(clippy::manual_memcpy)]
+                    for k in 0..n {
+                        kept[at + k] = path[k];
+                    }
                     for k in 0..LANES {
-                        let step = step_cost(hx[k] - tx, hy[k] - ty, hz[k] - tz, beta, epsilon);
-                        best[k] = least(best[k], previous + step);
+                        total[k] += path[k];
                     }
                 }
                 for k in 0..n {
-                    here[first - vs + k] = data[first + k] + best[k] - floor;
+                    sum[vs + first + k] = total[k];
                 }
             }
         }
     }
-    path
+    sum
 }
 
 /// `S(l, l')` (eq. 11) for the points `e` mm apart: `β·max(0, D − ε)`. A step shorter than
@@ -488,12 +532,12 @@ pub(crate) fn distance_mm(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 mod tests {
     use super::*;
 
-    /// `L_r` one candidate at a time, written as eq. 11 reads: the oracle of [`aggregate`].
+    /// `L_r` one candidate at a time, written as eq. 11 reads: the oracle of [`sweep`].
     fn aggregate_one_at_a_time(
         field: &CandidateField,
         data: &[f32],
         params: &SelectionParams,
-        (dx, dy): (i32, i32),
+        (dx, dy): Step,
     ) -> Vec<f32> {
         let (w, h) = (field.width as i32, field.height as i32);
         let mut path = vec![0.0f32; data.len()];
@@ -548,7 +592,7 @@ mod tests {
     }
 
     #[test]
-    fn four_candidates_at_a_time_give_the_paths_of_one_at_a_time_bit_for_bit() {
+    fn the_sweeps_give_the_paths_of_one_candidate_and_one_direction_at_a_time_bit_for_bit() {
         // 0 to 9 candidates per pixel (more than one group of lanes, and partial groups), some
         // within ε of their neighbours', some beyond; a xorshift for the layout.
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -581,23 +625,40 @@ mod tests {
             }
         }
         let field = CandidateField::from_counts(w, h, &counts, labels);
-        let data = data_costs(&field);
-        let points = Coordinates::of(&field);
+        let data: Vec<f32> = (0..w * h)
+            .flat_map(|i| {
+                let labels = field.labels(i % w, i / w);
+                let strongest = strongest(labels);
+                labels
+                    .iter()
+                    .map(move |l| data_cost(l.amplitude, strongest))
+            })
+            .collect();
         let params = SelectionParams::for_footprint(0.5);
         let mut compared = 0;
-        for &direction in Paths::Sixteen.directions() {
-            let lanes = aggregate(&field, &points, &data, &params, direction);
-            let oracle = aggregate_one_at_a_time(&field, &data, &params, direction);
-            assert_eq!(lanes.len(), oracle.len());
-            for (i, (a, b)) in lanes.iter().zip(&oracle).enumerate() {
-                assert_eq!(
-                    a.to_bits(),
-                    b.to_bits(),
-                    "direction {direction:?}, candidate {i}"
-                );
-                compared += 1;
+        for paths in [Paths::Eight, Paths::Sixteen] {
+            let (raster, reverse) = paths.sweeps();
+            assert_eq!(raster.len() + reverse.len(), paths.count() as usize);
+            for (directions, order) in [(raster, Order::Raster), (reverse, Order::Reverse)] {
+                let mut oracle = vec![0.0f32; data.len()];
+                for &direction in &directions {
+                    let path = aggregate_one_at_a_time(&field, &data, &params, direction);
+                    for (o, p) in oracle.iter_mut().zip(path) {
+                        *o += p;
+                    }
+                }
+                let swept = sweep(&field, &params, &directions, order);
+                assert_eq!(swept.len(), oracle.len());
+                for (i, (a, b)) in swept.iter().zip(&oracle).enumerate() {
+                    assert_eq!(
+                        a.to_bits(),
+                        b.to_bits(),
+                        "{paths:?} {directions:?}, candidate {i}"
+                    );
+                    compared += 1;
+                }
             }
         }
-        assert!(compared > 16 * w * h * 4, "{compared}");
+        assert_eq!(compared, 4 * data.len(), "two path sets, two sweeps each");
     }
 }
