@@ -167,19 +167,14 @@ impl RowDumpHeader {
     /// Checks that the dump was made with `plan`'s patterns (or, for a version-1 dump, with
     /// `plan` itself).
     pub fn check_plan(&self, plan: &ScanPlan) -> Result<(), WireError> {
-        self.check_identity(&plan.identity(), plan.sequence_len())
-    }
-
-    /// [`RowDumpHeader::check_plan`] for any method's plan, given its identity and frame count.
-    pub fn check_identity(&self, plan: &PlanIdentity, frames: usize) -> Result<(), WireError> {
-        if !self.recorded_with.admits(plan) {
+        if !self.recorded_with.admits(&plan.identity()) {
             return Err(WireError::Field {
                 what: WHAT,
                 field: self.recorded_with.field(),
                 value: self.recorded_with.fingerprint(),
             });
         }
-        if self.frames as usize != frames {
+        if self.frames as usize != plan.sequence_len() {
             return Err(WireError::Field {
                 what: WHAT,
                 field: "frames",
