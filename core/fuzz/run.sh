@@ -61,30 +61,37 @@ for target in $targets; do
     running=$((running + 1))
 done
 wait
-# Judged in the listed order, so that the first failing target is reported the same way each run.
+# Judged in the listed order, so that the first failing target is reported the same way each run;
+# every target's line is printed before the verdict, so that a long run that found a crash in one
+# target still records what the others did.
 summary=()
+failed=""
 for target in $targets; do
     log="$logs/$target.log"
     status=$(cat "$logs/$target.status" 2>/dev/null || echo "none")
     echo "== $target"
     grep -E '^Done|panicked|ERROR|SUMMARY' "$log" || true
-    if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
-        echo "fuzz $target found a crash: $where/artifacts/$target" >&2
-        exit 1
-    fi
-    if [ "$status" != 0 ]; then
-        tail -n 20 "$log" >&2
-        echo "fuzz $target failed (exit status $status)" >&2
-        exit 1
-    fi
     # libFuzzer ends with `Done N runs in S second(s)`: no such line, or N = 0, fuzzed nothing.
     runs=$(sed -n 's/^Done \([0-9]*\) runs in .*/\1/p' "$log" | tail -n1)
-    if [ -z "$runs" ] || [ "$runs" -eq 0 ]; then
+    corpus=$(ls "corpus/$target" | wc -l)
+    if [ -n "$(ls -A "artifacts/$target" 2>/dev/null)" ]; then
+        summary+=("$target: CRASH, input in $where/artifacts/$target (corpus $corpus inputs)")
+        failed=${failed:-"fuzz $target found a crash: $where/artifacts/$target"}
+    elif [ "$status" != 0 ]; then
         tail -n 20 "$log" >&2
-        echo "fuzz $target ran no input" >&2
-        exit 1
+        summary+=("$target: FAILED, exit status $status")
+        failed=${failed:-"fuzz $target failed (exit status $status)"}
+    elif [ -z "$runs" ] || [ "$runs" -eq 0 ]; then
+        tail -n 20 "$log" >&2
+        summary+=("$target: ran no input")
+        failed=${failed:-"fuzz $target ran no input"}
+    else
+        summary+=("$target: $runs runs in ${seconds} s, corpus $corpus inputs, 0 crashes")
     fi
-    summary+=("$target: $runs runs in ${seconds} s, corpus $(ls "corpus/$target" | wc -l) inputs, 0 crashes")
 done
 echo "== fuzz $where: ${#summary[@]} targets, $jobs at a time"
 printf '  %s\n' "${summary[@]}"
+if [ -n "$failed" ]; then
+    echo "$failed" >&2
+    exit 1
+fi
