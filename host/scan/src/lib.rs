@@ -6,6 +6,8 @@
 //! | every candidate → a 3D point, measurement volume | [`triangulate`] | SPEC §5 |
 //! | choose the direct candidate of every pixel | [`selection`] | §III-E, eqs. 10–13 |
 //! | drop the chosen points the projector cannot light directly | [`visibility`] | |
+//! | find plane mirrors, drop the virtual images they make | [`mirror`] | |
+//! | drop the pixels that straddle a depth edge | [`surface`] | |
 //! | the chosen point (or why none), column and direct / indirect light per pixel | [`surface`] | eqs. 12–13 |
 //! | Fig. 9 metrics and column errors against ground truth | [`metrics`] | §VII-B |
 //! | `points.ply` | [`ply`] | |
@@ -14,6 +16,7 @@
 
 pub mod decoded;
 pub mod metrics;
+pub mod mirror;
 pub mod output;
 pub mod pipeline;
 pub mod ply;

@@ -38,6 +38,8 @@ pub struct ScanSummary {
     pub points: usize,
     /// Pixels without a point, by reason.
     pub no_point: NoPointCounts,
+    /// The plane mirrors found, whose virtual images were removed (`no_point.fictitious`).
+    pub mirrors: Vec<crate::mirror::Mirror>,
     /// Rows the capture held no valid samples for (dump records skipped with
     /// `--skip-bad-rows`): their pixels count as `no_point.no_data`.
     pub rows_without_data: Vec<u32>,
@@ -96,6 +98,7 @@ impl ScanSummary {
             candidates_in_volume: surface.candidates,
             points: surface.points(),
             no_point: surface.no_point_counts(),
+            mirrors: surface.mirrors.clone(),
             rows_without_data: Vec::new(),
             bad_records: Vec::new(),
             decode_seconds: seconds.decode,
@@ -135,6 +138,8 @@ pub struct SelectionSummary {
     pub drop_aliased: bool,
     /// Whether the points the projector cannot light directly were dropped.
     pub drop_fictitious: bool,
+    /// Whether the points of pixels that straddle a depth edge were dropped.
+    pub drop_edges: bool,
     /// The least quality a point was given (signal-to-noise ratio).
     pub min_quality: f32,
 }
@@ -148,6 +153,7 @@ impl SelectionSummary {
             beta_per_mm: params.beta_per_mm,
             drop_aliased: params.drop_aliased,
             drop_fictitious: params.drop_fictitious,
+            drop_edges: params.drop_edges,
             min_quality: params.min_quality,
         }
     }

@@ -206,6 +206,10 @@ pub struct SelectionParams {
     /// Give no point to a pixel whose chosen point the projector cannot light directly
     /// ([`crate::visibility`]): a surface that exists only in reflections.
     pub drop_fictitious: bool,
+    /// Give no point to a pixel that straddles a depth edge
+    /// ([`crate::surface::NoPoint::Edge`]): its footprint sees two surfaces, and its point
+    /// may be on either.
+    pub drop_edges: bool,
     /// Give no point to a pixel whose chosen light's quality (signal-to-noise ratio,
     /// [`crate::Surface::quality`]) is below this; methods without a quality are not filtered.
     pub min_quality: f32,
@@ -230,6 +234,7 @@ impl SelectionParams {
             drop_isolated: true,
             drop_aliased: true,
             drop_fictitious: true,
+            drop_edges: true,
             min_quality: DEFAULT_MIN_QUALITY,
         }
     }
@@ -322,45 +327,53 @@ fn drop_isolated(
     choice: &[Option<u16>],
     reach_mm: f32,
 ) -> Vec<Option<u16>> {
-    let (w, h) = (field.width as i32, field.height as i32);
-    let point = |x: i32, y: i32| {
-        let i = (y * w + x) as usize;
-        choice[i].map(|c| field.labels[field.starts[i] as usize + c as usize].point_mm)
-    };
+    let (w, h) = (field.width, field.height);
+    let point =
+        |i: usize| choice[i].map(|c| field.labels[field.starts[i] as usize + c as usize].point_mm);
     let mut kept = choice.to_vec();
-    kept.par_chunks_mut(w.max(1) as usize)
+    kept.par_chunks_mut(w.max(1))
         .enumerate()
         .for_each(|(y, row)| {
-            let y = y as i32;
-            for x in 0..w {
-                let Some(p) = point(x, y) else { continue };
+            for (x, kept) in row.iter_mut().enumerate() {
+                let i = y * w + x;
+                let Some(p) = point(i) else { continue };
                 let mut chosen_neighbours = 0;
                 let mut near = false;
-                for (dx, dy) in [
-                    (-1, -1),
-                    (0, -1),
-                    (1, -1),
-                    (-1, 0),
-                    (1, 0),
-                    (-1, 1),
-                    (0, 1),
-                    (1, 1),
-                ] {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx < 0 || ny < 0 || nx >= w || ny >= h {
-                        continue;
-                    }
-                    if let Some(q) = point(nx, ny) {
-                        chosen_neighbours += 1;
-                        near |= distance_mm(&p, &q) <= reach_mm;
-                    }
+                for q in neighbours(i, w, h).flatten().filter_map(point) {
+                    chosen_neighbours += 1;
+                    near |= distance_mm(&p, &q) <= reach_mm;
                 }
                 if chosen_neighbours > 0 && !near {
-                    row[x as usize] = None;
+                    *kept = None;
                 }
             }
         });
     kept
+}
+
+/// The 8 neighbours of pixel `i` in a `width × height` image, `None` off the image.
+pub(crate) fn neighbours(
+    i: usize,
+    width: usize,
+    height: usize,
+) -> impl Iterator<Item = Option<usize>> {
+    let (x, y) = ((i % width) as isize, (i / width) as isize);
+    [
+        (-1, -1),
+        (0, -1),
+        (1, -1),
+        (-1, 0),
+        (1, 0),
+        (-1, 1),
+        (0, 1),
+        (1, 1),
+    ]
+    .into_iter()
+    .map(move |(dx, dy)| {
+        let (nx, ny) = (x + dx, y + dy);
+        (nx >= 0 && ny >= 0 && (nx as usize) < width && (ny as usize) < height)
+            .then(|| ny as usize * width + nx as usize)
+    })
 }
 
 /// `C(v, l) = −I_l / max I`: a candidate's data term, from its amplitude and its pixel's

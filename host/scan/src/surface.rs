@@ -5,9 +5,14 @@
 use fsm_geometry::Calibration;
 use serde::Serialize;
 
+use fsm_io::candidate_image::CandidateImage;
+
+use crate::mirror::{mirror_images, Mirror, MirrorParams};
 use crate::ply::PlyPoint;
+use crate::selection::{distance_mm, neighbours};
 use crate::selection::{select, CandidateField, Selection, SelectionParams};
 use crate::visibility::{fictitious_points, VisibilityParams};
+use rayon::prelude::*;
 
 /// Why a pixel has no point: every pixel without one has a reason on record.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -29,6 +34,13 @@ pub enum NoPoint {
     LowQuality,
     /// The projector cannot light the chosen point directly ([`crate::visibility`]).
     Fictitious,
+    /// A plane mirror hides the chosen point from the camera or the projector: it is a
+    /// virtual image ([`crate::mirror`]).
+    BehindMirror,
+    /// The pixel straddles a depth edge: a neighbour chose a point on another surface, and
+    /// the pixel holds that surface's light too, so its footprint sees both sides and its
+    /// point may belong to either.
+    Edge,
 }
 
 /// Pixels without a point, by reason (`summary.json`).
@@ -50,6 +62,10 @@ pub struct NoPointCounts {
     pub low_quality: usize,
     /// See [`NoPoint::Fictitious`].
     pub fictitious: usize,
+    /// See [`NoPoint::BehindMirror`].
+    pub behind_mirror: usize,
+    /// See [`NoPoint::Edge`].
+    pub edge: usize,
 }
 
 /// The result of a scan.
@@ -75,6 +91,8 @@ pub struct Surface {
     pub indirect: Vec<f32>,
     /// Candidates that triangulated inside the measurement volume.
     pub candidates: usize,
+    /// The plane mirrors found ([`crate::mirror`]).
+    pub mirrors: Vec<Mirror>,
 }
 
 impl Surface {
@@ -98,6 +116,7 @@ impl Surface {
             direct: selection.direct,
             indirect: selection.indirect,
             candidates: field.len(),
+            mirrors: Vec::new(),
         };
         for (i, choice) in selection.choice.iter().enumerate() {
             let labels = field.labels(i % field.width(), i / field.width());
@@ -114,6 +133,51 @@ impl Surface {
             }
         }
         surface
+    }
+
+    /// Removes the points of pixels that straddle a depth edge ([`NoPoint::Edge`]): one of
+    /// the 8 neighbours chose a point more than `reach_mm` from the pixel's, and the pixel
+    /// holds a candidate within `reach_mm` of that neighbour's point. Judged on the choices as
+    /// the selection made them, all pixels at once.
+    ///
+    /// `edges` (from [`Surface::edges`]) is judged on the selection's choices, before any is
+    /// dropped: a neighbour whose point later goes (a virtual image, a fictitious surface)
+    /// still received the other side's light, so the pixel beside it still straddles.
+    pub fn drop_edges(&mut self, edges: &[bool]) {
+        for (i, e) in edges.iter().enumerate() {
+            if *e && self.point_mm[i].is_some() {
+                self.drop_point(i, NoPoint::Edge);
+            }
+        }
+    }
+
+    /// The pixels that straddle a depth edge: one of the 8 neighbours chose a point more
+    /// than `reach_mm` from the pixel's, the pixel holds a candidate within `reach_mm` of it,
+    /// and the neighbour holds none within `reach_mm` of the pixel's point. The last condition
+    /// tells an edge from two neighbours that chose differently among the same two lights:
+    /// across an edge only the pixel that straddles it holds both.
+    pub fn edges(&self, field: &CandidateField, reach_mm: f32) -> Vec<bool> {
+        let (w, h) = (self.width, self.height);
+        let near = |a: [f32; 3], b: [f32; 3]| distance_mm(&a, &b) <= reach_mm;
+        (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let Some(own) = self.point_mm[i] else {
+                    return false;
+                };
+                let labels = field.labels(i % w, i / w);
+                neighbours(i, w, h).flatten().any(|j| {
+                    self.point_mm[j].is_some_and(|other| {
+                        !near(own, other)
+                            && labels.iter().any(|l| near(l.point_mm, other))
+                            && !field
+                                .labels(j % w, j / w)
+                                .iter()
+                                .any(|l| near(l.point_mm, own))
+                    })
+                })
+            })
+            .collect()
     }
 
     /// Gives every point its quality: its light's amplitude over `column_noise_dn`.
@@ -156,6 +220,29 @@ impl Surface {
         }
     }
 
+    /// Removes the points a plane mirror hides from the camera or the projector
+    /// ([`crate::mirror`]), and records the mirrors found.
+    pub fn drop_mirror_images(
+        &mut self,
+        calibration: &Calibration,
+        candidates: &CandidateImage,
+        params: &MirrorParams,
+    ) {
+        let (mirrors, fictitious) = mirror_images(
+            calibration,
+            candidates,
+            &self.point_mm,
+            &self.column,
+            params,
+        );
+        for (i, f) in fictitious.iter().enumerate() {
+            if *f {
+                self.drop_point(i, NoPoint::BehindMirror);
+            }
+        }
+        self.mirrors = mirrors;
+    }
+
     /// Pixels with a point.
     pub fn points(&self) -> usize {
         self.point_mm.iter().filter(|p| p.is_some()).count()
@@ -174,6 +261,8 @@ impl Surface {
                 NoPoint::Isolated => &mut counts.isolated,
                 NoPoint::LowQuality => &mut counts.low_quality,
                 NoPoint::Fictitious => &mut counts.fictitious,
+                NoPoint::BehindMirror => &mut counts.behind_mirror,
+                NoPoint::Edge => &mut counts.edge,
             } += 1;
         }
         counts
@@ -242,6 +331,11 @@ impl Surface {
         );
         let triangulated = std::time::Instant::now();
         let mut surface = Surface::select(&field, &before, params);
+        // Judged on the selection's choices, before any is dropped: a pixel beside one whose
+        // virtual point goes is still at the edge.
+        let edges = params
+            .drop_edges
+            .then(|| surface.edges(&field, 2.0 * params.epsilon_mm));
         surface.rate(decoded.column_noise_dn);
         surface.drop_below(params.min_quality);
         if params.drop_fictitious {
@@ -249,6 +343,14 @@ impl Surface {
                 calibration,
                 &VisibilityParams::for_epsilon(params.epsilon_mm),
             );
+            surface.drop_mirror_images(
+                calibration,
+                &decoded.candidates,
+                &MirrorParams::for_epsilon(params.epsilon_mm),
+            );
+        }
+        if let Some(edges) = edges {
+            surface.drop_edges(&edges);
         }
         let times = StageTimes {
             triangulate_seconds: (triangulated - started).as_secs_f64(),
@@ -300,5 +402,42 @@ mod tests {
         unrated.rate(None);
         unrated.drop_below(20.0);
         assert_eq!(unrated.points(), 3);
+    }
+
+    /// A row of six pixels 1 mm apart with the given labels (`(x offset, depth)` each), the
+    /// first label chosen; the edges at a reach of 2 mm.
+    fn edges_of(pixels: [&[(f32, f32)]; 6]) -> Vec<bool> {
+        let label = |x: usize, (dx, z): (f32, f32)| Label {
+            point_mm: [x as f32 + dx, 0.0, z],
+            amplitude: 100.0,
+            column: z,
+        };
+        let field =
+            CandidateField::from_fn(6, 1, |x, _| pixels[x].iter().map(move |&l| label(x, l)));
+        let mut s = Surface::select(&field, &[None; 6], &SelectionParams::for_footprint(0.5));
+        for (x, p) in pixels.iter().enumerate() {
+            s.point_mm[x] = Some(label(x, p[0]).point_mm);
+        }
+        s.edges(&field, 2.0)
+    }
+
+    #[test]
+    fn the_pixel_that_holds_the_light_of_both_sides_of_a_depth_edge_is_the_edge() {
+        // A surface at 400 mm, another at 500 mm; pixel 2 straddles: it chose the near side
+        // and also holds the far side's light.
+        let near: &[(f32, f32)] = &[(0.0, 400.0)];
+        let far: &[(f32, f32)] = &[(0.0, 500.0)];
+        let straddling: &[(f32, f32)] = &[(0.0, 400.0), (0.9, 500.0)];
+        assert_eq!(
+            edges_of([near, near, straddling, far, far, far]),
+            [false, false, true, false, false, false]
+        );
+        // Without the far side's light it is no edge, only a jump.
+        assert_eq!(edges_of([near, near, near, far, far, far]), [false; 6]);
+        // Every pixel holds both lights and neighbours chose differently (as under glossy
+        // interreflection): no pixel holds what the others do not.
+        let a: &[(f32, f32)] = &[(0.0, 400.0), (0.0, 450.0)];
+        let b: &[(f32, f32)] = &[(0.0, 450.0), (0.0, 400.0)];
+        assert_eq!(edges_of([a, a, a, b, b, b]), [false; 6]);
     }
 }

@@ -34,7 +34,7 @@
 //! What it cannot see: a virtual image in a plane mirror, at the pixels that see the mirror,
 //! is consistent with camera and projector alike (unfold the two reflections and it is a
 //! real surface lit directly); it is caught only where the projector also lights a measured
-//! surface on its rays.
+//! surface on its rays. [`crate::mirror`] finds the mirror and removes the rest.
 
 use fsm_geometry::Calibration;
 use nalgebra::Point3;

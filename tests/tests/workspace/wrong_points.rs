@@ -1,15 +1,17 @@
 //! A point is right or absent (issue 13): on the mirror scenes and the V-grooves, BFSM and EFSM
 //! (two groups) scanned through the library path of `fsm scan` — decode with the calibration's
-//! column limits, triangulate every candidate, select, drop what the projector cannot light
-//! directly — and every output point compared with the simulator's true surface point. The
-//! default quality filter ([`fsm_scan::selection::DEFAULT_MIN_QUALITY`]) is on in every scan.
+//! column limits, triangulate every candidate, select, then drop what the projector cannot
+//! light directly, what a plane mirror hides and the pixels that straddle a depth edge — and
+//! every output point compared with the simulator's true surface point. The default quality
+//! filter ([`fsm_scan::selection::DEFAULT_MIN_QUALITY`]) is on in every scan.
 //!
 //! - wrong: output points more than 1 mm from the true point of their pixel (or on a pixel
 //!   that sees no surface at all);
 //! - completeness: the share of the directly lit pixels (away from edges) that keep a point
 //!   within 1 mm of the truth.
 //!
-//! The default run scans a band of rows of each scene; the whole images are
+//! The default run scans a band of rows of each scene (`sphere_mirror` whole); the whole images
+//! are
 //! `cargo test -p fsm-tests --release --test workspace wrong_points:: -- --ignored --nocapture`.
 
 use crate::support;
@@ -37,7 +39,7 @@ fn scan(
     transport: &Arc<LightTransport>,
     plan: &ScanPlan,
     system: &System,
-    drop_fictitious: bool,
+    tests_on: bool,
 ) -> Figures {
     let sensor = Sensor::default();
     let capture = Capture::new(transport.clone(), plan, system, sensor, 7).expect("capture");
@@ -45,7 +47,8 @@ fn scan(
     let mut plan = *plan;
     plan.decoding.sensor = sensor.datasheet();
     let params = SelectionParams {
-        drop_fictitious,
+        drop_fictitious: tests_on,
+        drop_edges: tests_on,
         ..SelectionParams::for_calibration(&system.calibration)
     };
     let Scanned { surface, truth, .. } =
@@ -58,47 +61,58 @@ fn scan(
     }
 }
 
-/// The bounds a scan with the visibility test must keep: on the band of rows 100..140, the
-/// share of wrong points (the issue's goal is 0.1%; this is what the visibility test reaches
-/// so far, with margin) and the completeness over the directly lit pixels; on any rows, the
-/// share of the right points the test may cost.
+/// The bounds a scan with the tests on must keep: on its band of rows, the share of wrong
+/// points (the issue's goal is 0.1%; where a scene is above it, this is what the tests reach so
+/// far, with margin) and the completeness over the directly lit pixels; on any rows, the share
+/// of the right points the tests may cost (the edge test drops mixed pixels the truth does not
+/// count as edges: up to 0.5% on the mirror scenes).
 const BOUNDS: [(&str, &str, f64, f64, f64); 8] = [
-    // Virtual images of the wall in the plane mirror, seen at pixels that see the mirror:
-    // consistent with camera and projector alike, and on projector rays no measured surface
-    // shares (what the projector lights there is the mirror itself).
-    ("sphere_mirror", "BFSM", 0.10, 0.99, 0.001),
-    ("sphere_mirror", "EFSM x2", 0.10, 0.99, 0.001),
-    ("plane_mirror", "BFSM", 0.002, 0.99, 0.001),
-    ("plane_mirror", "EFSM x2", 0.002, 0.95, 0.001),
+    ("sphere_mirror", "BFSM", 0.0015, 0.99, 0.005),
+    ("sphere_mirror", "EFSM x2", 0.0015, 0.95, 0.005),
+    ("plane_mirror", "BFSM", 0.001, 0.99, 0.005),
+    ("plane_mirror", "EFSM x2", 0.001, 0.95, 0.005),
     ("vgroove", "BFSM", 0.001, 0.99, 0.001),
     ("vgroove", "EFSM x2", 0.005, 0.99, 0.001),
-    ("vgroove_glossy", "BFSM", 0.025, 0.96, 0.001),
+    ("vgroove_glossy", "BFSM", 0.025, 0.96, 0.002),
     // EFSM under a broad glossy lobe: the decoder's wrong candidates (issue 12), not the
-    // selection's; bounded so that it cannot get worse unnoticed.
-    ("vgroove_glossy", "EFSM x2", 0.30, 0.33, 0.03),
+    // selection's; the edge test takes right points there too (neighbours that chose among
+    // wrong candidates look like edges). Bounded so that it cannot get worse unnoticed.
+    ("vgroove_glossy", "EFSM x2", 0.30, 0.30, 0.12),
 ];
 
-/// Scans `rows` of every scene with both plans, with and without the visibility test, and
-/// prints the figures. The test never adds a wrong point and keeps [`BOUNDS`].
-fn right_or_absent(rows: Range<u32>) {
+/// The rows of a scene the default run scans: rows 100..140, except on `sphere_mirror`, which
+/// is scanned whole. Its mirror is found from the pixels that see, through it, wall the
+/// projector lights directly (`fsm_scan::mirror`); in rows 100..140 the mirror shows only the
+/// sphere's shadow, and a band holds too few such pixels for EFSM.
+fn band(scene: &str) -> Range<u32> {
+    if scene == "sphere_mirror" {
+        0..240
+    } else {
+        100..140
+    }
+}
+
+/// Scans every scene with both plans, with the tests off and on, and prints the figures: the
+/// band of each scene, or whole images. The tests never add a wrong point and keep [`BOUNDS`].
+fn right_or_absent(whole: bool) {
     let system = System::bench();
     let plans = [
         ("BFSM", ScanPlan::paper_bfsm()),
         ("EFSM x2", ScanPlan::paper_efsm(GroupCount::Two)),
     ];
-    let band = rows == (100..140);
     let mut failures = Vec::new();
     for scene in ["sphere_mirror", "plane_mirror", "vgroove", "vgroove_glossy"] {
+        let rows = if whole { 0..240 } else { band(scene) };
         let t = transport(scene, &system, rows.clone());
         for (name, plan) in &plans {
-            let [off, on] = [false, true].map(|drop_fictitious| {
-                let f = scan(&t, plan, &system, drop_fictitious);
+            let [off, on] = [false, true].map(|tests_on| {
+                let f = scan(&t, plan, &system, tests_on);
                 let e = f.errors;
                 let (wrong, complete) = (e.wrong_share(), e.completeness());
                 println!(
-                    "{scene:>14} {name:<7} visibility test {:<3}: {} points, {} wrong ({:.3}%), \
+                    "{scene:>14} {name:<7} rows {rows:?} tests {:<3}: {} points, {} wrong ({:.3}%), \
                      directly lit pixels with a right point {:.2}% of {}; no point: {:?}",
-                    if drop_fictitious { "on" } else { "off" },
+                    if tests_on { "on" } else { "off" },
                     e.points,
                     e.wrong,
                     100.0 * wrong,
@@ -119,7 +133,7 @@ fn right_or_absent(rows: Range<u32>) {
                     off.0.lit_right, on.0.lit_right, off.0.wrong, on.0.wrong
                 ));
             }
-            if band && (on.1 > bound.2 || on.2 < bound.3) {
+            if !whole && (on.1 > bound.2 || on.2 < bound.3) {
                 failures.push(format!(
                     "{scene} {name}: {:.3}% wrong (bound {:.1}%), {:.2}% complete (bound {:.0}%)",
                     100.0 * on.1,
@@ -135,11 +149,11 @@ fn right_or_absent(rows: Range<u32>) {
 
 #[test]
 fn every_point_is_right_or_absent_on_a_band_of_each_scene() {
-    right_or_absent(100..140);
+    right_or_absent(false);
 }
 
 #[test]
 #[ignore = "whole images: cargo test -p fsm-tests --release --test workspace wrong_points:: -- --ignored --nocapture"]
 fn every_point_is_right_or_absent_on_the_whole_images() {
-    right_or_absent(0..240);
+    right_or_absent(true);
 }

@@ -102,6 +102,11 @@ pub struct SelectionArgs {
     /// surfaces, virtual images); by default they get no point.
     #[arg(long)]
     keep_fictitious: bool,
+    /// Keep the points of pixels that straddle a depth edge (a neighbour chose a point on
+    /// another surface, and the pixel holds that surface's light too: its point may be on
+    /// either side); by default they get no point.
+    #[arg(long)]
+    keep_edges: bool,
     /// Give no point to a pixel whose light is weaker than this many times the noise RMS of
     /// one column of a dark pixel's light profile (the point's quality, a signal-to-noise
     /// ratio; written to points.ply and quality.tiff). 0 keeps every point. Plans decoded by a
@@ -124,6 +129,7 @@ impl SelectionArgs {
         params.beta_per_mm = self.beta_per_mm.unwrap_or(params.beta_per_mm);
         params.drop_aliased = !self.keep_aliased;
         params.drop_fictitious = !self.keep_fictitious;
+        params.drop_edges = !self.keep_edges;
         params.min_quality = self.min_quality;
         params
     }

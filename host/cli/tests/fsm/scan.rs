@@ -57,8 +57,8 @@ fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
         .sum();
     assert_eq!(points as u64 + without, 96 * 72, "{summary}");
     // Against the simulator's truth, every point counted. Measured at this small camera (a
-    // pixel's footprint is 2.6 mm): 3.9% of the points more than 1 mm off, 89.7% of the lit
-    // pixels right; at 320 x 240 the same scene has 0.10% (tests/tests/workspace/wrong_points.rs).
+    // pixel's footprint is 2.6 mm): 3.8% of the points more than 1 mm off, 89.6% of the lit
+    // pixels right; at 320 x 240 the same scene has 0.016% (tests/tests/workspace/wrong_points.rs).
     let truth = &summary["truth"];
     let count = |field: &str| truth[field].as_u64().unwrap();
     assert_eq!(count("points") as usize, points, "{summary}");
@@ -169,6 +169,75 @@ fn scan_refuses_a_calibration_of_another_projector_or_camera_and_leaves_nothing(
         "{stderr}"
     );
     assert!(!out.exists());
+}
+
+/// `sphere_mirror` (320 x 240, BFSM): the mirror is found and written to `summary.json`, its
+/// virtual images and the pixels that straddle depth edges get no point, each with its reason;
+/// `--keep-fictitious --keep-edges` turns both off.
+#[test]
+fn a_mirror_is_found_and_what_it_hides_and_mixed_pixels_get_no_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    simulate("sphere_mirror", "paper-bfsm", "320x240", &sim);
+    let files = ["plan.toml", "calibration.toml", "scan.dump", "truth"].map(|f| sim.join(f));
+    let scan = |extra: &[&str], out: &Path| {
+        let mut args = vec![
+            "scan",
+            "--plan",
+            s(&files[0]),
+            "--calibration",
+            s(&files[1]),
+            "--dump",
+            s(&files[2]),
+            "--truth",
+            s(&files[3]),
+            "--out",
+            s(out),
+        ];
+        args.extend_from_slice(extra);
+        ok(&args);
+        serde_json::from_slice::<serde_json::Value>(&fs::read(out.join("summary.json")).unwrap())
+            .unwrap()
+    };
+    let on = scan(&[], &dir.path().join("on"));
+    let mirrors = on["mirrors"].as_array().unwrap();
+    assert_eq!(mirrors.len(), 1, "{on}");
+    // The simulator's mirror: the plane x = -70 mm, facing the projector (+x).
+    let normal: Vec<f64> = mirrors[0]["normal"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(-normal[0] > 1f64.to_radians().cos(), "{on}");
+    assert!(
+        (mirrors[0]["offset_mm"].as_f64().unwrap() - 70.0).abs() < 1.0,
+        "{on}"
+    );
+    let reasons = &on["no_point"];
+    assert!(reasons["behind_mirror"].as_u64().unwrap() > 1000, "{on}");
+    assert!(reasons["edge"].as_u64().unwrap() > 0, "{on}");
+    assert!(
+        on["truth"]["wrong_share"].as_f64().unwrap() <= 0.0015,
+        "{on}"
+    );
+    assert!(
+        on["truth"]["completeness"].as_f64().unwrap() >= 0.98,
+        "{on}"
+    );
+
+    let off = scan(
+        &["--keep-fictitious", "--keep-edges"],
+        &dir.path().join("off"),
+    );
+    assert_eq!(off["mirrors"].as_array().unwrap().len(), 0, "{off}");
+    assert_eq!(off["no_point"]["behind_mirror"], 0, "{off}");
+    assert_eq!(off["no_point"]["edge"], 0, "{off}");
+    assert_eq!(off["selection"]["drop_edges"], false, "{off}");
+    assert!(
+        off["truth"]["wrong_share"].as_f64().unwrap() > 0.05,
+        "{off}"
+    );
 }
 
 #[test]
