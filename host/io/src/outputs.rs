@@ -84,28 +84,36 @@ pub fn remove_unfinished_on_signal() -> io::Result<()> {
                     SIGTERM => "SIGTERM",
                     _ => "SIGHUP",
                 };
-                // Held until the process ends: nothing is committed after this.
-                let list = unfinished();
-                for (temp, target) in list.iter() {
-                    let removed = remove_entry(temp);
-                    match removed {
-                        Ok(()) => eprintln!(
-                            "fsm: stopped by {name}: unfinished {} removed",
-                            target.display()
-                        ),
-                        Err(e) => eprintln!(
-                            "fsm: stopped by {name}: could not remove the unfinished {}: {e}",
-                            temp.display()
-                        ),
-                    }
-                }
-                if list.is_empty() {
-                    eprintln!("fsm: stopped by {name}");
-                }
-                std::process::exit(128 + signal);
+                exit_removing_unfinished(name, 128 + signal, true);
             }
         })?;
     Ok(())
+}
+
+/// Removes every staged output of this process not yet committed, says so on stderr (`fsm:
+/// stopped by {cause}: …`; with nothing to remove, `fsm: stopped by {cause}` only when
+/// `say_stopped`) and exits with `code`. A commit under way finishes first (it holds the
+/// list), so the target is either whole or untouched. For a run that cannot go on: a signal,
+/// or a reader that closed the tool's standard output.
+pub fn exit_removing_unfinished(cause: &str, code: i32, say_stopped: bool) -> ! {
+    // Held until the process ends: nothing is committed after this.
+    let list = unfinished();
+    for (temp, target) in list.iter() {
+        match remove_entry(temp) {
+            Ok(()) => eprintln!(
+                "fsm: stopped by {cause}: unfinished {} removed",
+                target.display()
+            ),
+            Err(e) => eprintln!(
+                "fsm: stopped by {cause}: could not remove the unfinished {}: {e}",
+                temp.display()
+            ),
+        }
+    }
+    if list.is_empty() && say_stopped {
+        eprintln!("fsm: stopped by {cause}");
+    }
+    std::process::exit(code)
 }
 
 /// Removes a file or a folder with everything in it; a folder another thread is still

@@ -58,10 +58,10 @@ pub fn run(args: Args) -> Result<()> {
         let view = inspect::inspect_pixel(&plan, &capture, x, y, &args.out)?;
         eprintln!("wrote {}", args.out.display());
         if view.candidates.candidates.is_empty() {
-            println!("pixel ({x}, {y}): no candidate");
+            sayln!("pixel ({x}, {y}): no candidate");
         }
         for c in &view.candidates.candidates {
-            println!(
+            sayln!(
                 "pixel ({x}, {y}): column {:.3}, amplitude {:.1} DN, group {}, block {}",
                 c.column,
                 c.amplitude,

@@ -87,7 +87,7 @@ pub fn run(args: Args) -> Result<()> {
             fsm_io::outputs::check_file_target(wire, args.force)?;
         }
         let plan = plan_file::read_method_plan(path)?;
-        println!("{}: valid plan", path.display());
+        sayln!("{}: valid plan", path.display());
         print_summary(&plan);
         return write_wire(&plan, args.wire.as_deref());
     }
@@ -140,7 +140,7 @@ pub fn run(args: Args) -> Result<()> {
                 Syntax::Toml => PlanSyntax::Toml,
                 Syntax::Json => PlanSyntax::Json,
             };
-            print!("{}", plan_file::render_method_plan(&plan, syntax));
+            say!("{}", plan_file::render_method_plan(&plan, syntax));
         }
     }
     write_wire(&plan, args.wire.as_deref())
@@ -162,5 +162,5 @@ fn write_wire(plan: &MethodPlan, path: Option<&Path>) -> Result<()> {
 }
 
 fn print_summary(plan: &MethodPlan) {
-    print!("{}", plan.description());
+    say!("{}", plan.description());
 }

@@ -393,3 +393,21 @@ fn plan_errors_name_the_field() {
     ]);
     assert!(!out.exists());
 }
+
+/// A reader that closed the tool's standard output (`fsm … | head -1`) ends the run as SIGPIPE
+/// ends a Unix tool: quietly, with exit status 141, not with a panic (which exited 101 with a
+/// backtrace). The pipe's read end is closed before the run starts, so the first write fails.
+#[test]
+fn a_closed_standard_output_ends_the_run_quietly() {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("fsm"))
+        .args(["plan", "--preset", "paper-bfsm"])
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(141), "{said}");
+    assert!(said.is_empty(), "{said}");
+}

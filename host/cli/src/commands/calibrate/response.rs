@@ -115,16 +115,16 @@ pub fn run(args: Args) -> Result<()> {
     let model = ResponseModel::from_name(&args.model).expect("clap checked the name");
     let chosen = response::choose(&estimate, model);
     let bits = (estimate.saturation_code as u32 + 1).trailing_zeros() as u8;
-    print!("{}", estimate.table(images, bits));
+    say!("{}", estimate.table(images, bits));
     let what = &chosen.what;
     if let Some(out) = &args.out {
         let comment = response::file_comment(&estimate, images, codes.len());
         chosen.response.write(out, &comment)?;
-        println!("wrote {} ({what})", out.display());
+        sayln!("wrote {} ({what})", out.display());
     }
     if let Some(path) = &args.calibration {
         response::store_in_calibration(path, &chosen.response)?;
-        println!("stored {what} in {}", path.display());
+        sayln!("stored {what} in {}", path.display());
     }
     if let Some(path) = &args.json {
         let report = ResponseReport {
@@ -136,7 +136,7 @@ pub fn run(args: Args) -> Result<()> {
             estimate: &estimate,
         };
         report.write(path)?;
-        println!("wrote {}", path.display());
+        sayln!("wrote {}", path.display());
     }
     Ok(())
 }

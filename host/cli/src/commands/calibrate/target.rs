@@ -158,7 +158,7 @@ pub fn run(args: Args) -> Result<()> {
     let (calibration, report) = calibrate(&board.corners_mm(), &poses.observations, &settings)
         .map_err(|e| Error::Usage(format!("calibration failed: {e}")))?;
 
-    print!("{}", report.table());
+    say!("{}", report.table());
     write_file(&args.out, calibration.to_toml().as_bytes())?;
     eprintln!("wrote {}", args.out.display());
     if let Some(path) = &args.report {
