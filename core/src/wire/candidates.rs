@@ -235,7 +235,7 @@ pub fn decode_record<'a>(
     check_record(WHAT, header.height, row, &[body], stored_crc(framed))?;
     let record = CandidateRecord {
         row,
-        payload: &bytes[8..len - 4],
+        payload: &body[8..],
         len,
     };
     record.walk(header, |_, _| Ok(()))?;

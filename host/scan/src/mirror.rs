@@ -277,6 +277,9 @@ pub fn mirror_images(
         "one point slot per pixel"
     );
     assert_eq!(columns.len(), points.len(), "one column slot per pixel");
+    if points.is_empty() {
+        return (Vec::new(), Vec::new());
+    }
     let o = calibration.projector_centre_mm();
     // About 320 × 240 pixels vote, whatever the image's size.
     let stride = ((points.len() as f64 / 76_800.0).sqrt().round() as usize).max(1);
