@@ -85,7 +85,7 @@ pub struct Mirror {
     pub normal: [f32; 3],
     /// `normal · Y` of the plane's points, mm.
     pub offset_mm: f32,
-    /// Pixels that verify it.
+    /// Pixels that verify it (or a piece of it: a plane fitted to part of it).
     pub pixels: usize,
     /// Convex outline in the plane's coordinates (along `axes`), mm.
     #[serde(skip)]
@@ -165,27 +165,69 @@ fn azimuth_cells(angle_deg: f32) -> i32 {
     (360.0 / angle_deg).round() as i32
 }
 
-/// The votes of a cell of plane space and the sums of their planes.
-#[derive(Clone, Copy, Debug)]
+/// The votes of a cell of plane space and the sums of their planes, in fixed point: integer
+/// sums do not depend on the order of the votes, so the vote is the same on any number of
+/// threads.
+#[derive(Clone, Copy, Debug, Default)]
 struct CellSum {
-    normal: Vec3,
-    offset_mm: f32,
+    /// `Σ normal · 2^24`.
+    normal: [i64; 3],
+    /// `Σ offset · 2^12`, mm.
+    offset: i64,
     votes: u32,
 }
 
 impl CellSum {
-    const EMPTY: CellSum = CellSum {
-        normal: Vec3::new(0.0, 0.0, 0.0),
-        offset_mm: 0.0,
-        votes: 0,
-    };
+    const NORMAL_ONE: f32 = (1 << 24) as f32;
+    const MM_ONE: f32 = (1 << 12) as f32;
 
-    fn add(&mut self, normal: Vec3, offset_mm: f32, votes: u32) {
-        self.normal += normal;
-        self.offset_mm += offset_mm;
-        self.votes += votes;
+    fn add(&mut self, b: &Bisector) {
+        for k in 0..3 {
+            self.normal[k] += (b.normal[k] * Self::NORMAL_ONE).round() as i64;
+        }
+        self.offset += (b.offset_mm * Self::MM_ONE).round() as i64;
+        self.votes += 1;
+    }
+
+    fn merge(&mut self, other: &CellSum) {
+        for k in 0..3 {
+            self.normal[k] += other.normal[k];
+        }
+        self.offset += other.offset;
+        self.votes += other.votes;
+    }
+
+    /// The mean plane of the votes: unit normal and offset, mm.
+    fn plane(&self) -> (Vec3, f32) {
+        let n = Vec3::from(self.normal.map(|v| v as f32 / Self::NORMAL_ONE));
+        let votes = self.votes.max(1) as f32;
+        (n.normalize(), self.offset as f32 / Self::MM_ONE / votes)
     }
 }
+
+/// A multiplicative hash for the vote's cell keys (the standard hasher, built against
+/// collision attacks, costs more than the vote's other work).
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+}
+
+/// Votes by cell key.
+type Cells = std::collections::HashMap<u64, CellSum, std::hash::BuildHasherDefault<CellHasher>>;
 
 fn key(cell: [i32; 3]) -> u64 {
     let part = |v: i32| (v as i64 + (1 << 20)) as u64 & ((1 << 21) - 1);
@@ -224,13 +266,13 @@ impl Pairs<'_> {
             .flat_map(move |y| (0..width).step_by(stride).map(move |x| y * width + x))
     }
 
-    /// Calls `f(q, bisector)` for every pair of the voting grid.
-    fn for_each(&self, mut f: impl FnMut(usize, Bisector)) {
+    /// Calls `f(bisector)` for every pair of pixel `q` (of the voting grid).
+    fn of_pixel(&self, q: usize, mut f: impl FnMut(Bisector)) {
         let tol = self.params.column_tolerance;
         let min_mm = 4.0 * self.params.tolerance_mm;
-        for q in self.grid(self.stride) {
+        {
             let (Some(x), Some(c1)) = (self.points[q], self.columns[q]) else {
-                continue;
+                return;
             };
             for other in self.candidates.candidates(q) {
                 let c2 = other.column;
@@ -253,7 +295,7 @@ impl Pairs<'_> {
                     }
                     let w = Vec3::from(self.points[p].expect("chosen"));
                     if let Some(b) = Bisector::of(Vec3::from(x), w, self.projector, min_mm) {
-                        f(q, b);
+                        f(b);
                     }
                 }
             }
@@ -302,13 +344,25 @@ pub fn mirror_images(
         stride,
     };
     let (angle, step) = (params.angle_deg, params.tolerance_mm);
-    // The vote: pairs per cell of plane space, with the sums of their planes.
-    let mut sums: std::collections::HashMap<u64, CellSum> = std::collections::HashMap::new();
-    pairs.for_each(|_, b| {
-        sums.entry(key(b.cell(angle, step)))
-            .or_insert(CellSum::EMPTY)
-            .add(b.normal, b.offset_mm, 1);
-    });
+    // The vote: pairs per cell of plane space, with the sums of their planes; rows of the grid
+    // in parallel.
+    let voters: Vec<usize> = pairs.grid(pairs.stride).collect();
+    let sums = voters
+        .par_chunks(1024)
+        .fold(Cells::default, |mut cells, chunk| {
+            for &q in chunk {
+                pairs.of_pixel(q, |b| {
+                    cells.entry(key(b.cell(angle, step))).or_default().add(&b);
+                });
+            }
+            cells
+        })
+        .reduce(Cells::default, |mut a, b| {
+            for (k, sum) in b {
+                a.entry(k).or_default().merge(&sum);
+            }
+            a
+        });
     let mut cells: Vec<(u64, CellSum)> = sums.into_iter().collect();
     cells.sort_unstable_by_key(|c| c.0);
     let unpack = |k: u64| {
@@ -318,7 +372,7 @@ pub fn mirror_images(
     let turns = azimuth_cells(angle);
     // The votes of a cell and its neighbours.
     let around = |cell: [i32; 3]| {
-        let mut total = CellSum::EMPTY;
+        let mut total = CellSum::default();
         for da in -1..=1 {
             for de in -1..=1 {
                 for dof in -1..=1 {
@@ -328,8 +382,7 @@ pub fn mirror_images(
                         cell[2] + dof,
                     ];
                     if let Ok(i) = cells.binary_search_by_key(&key(neighbour), |c| c.0) {
-                        let c = &cells[i].1;
-                        total.add(c.normal, c.offset_mm, c.votes);
+                        total.merge(&cells[i].1);
                     }
                 }
             }
@@ -368,9 +421,11 @@ pub fn mirror_images(
     let mut found: Vec<(Verified, Vec3, f32)> = hypotheses
         .par_iter()
         .filter_map(|(_, sum)| {
-            let mut plane = (sum.normal.normalize(), sum.offset_mm / sum.votes as f32);
+            let mut plane = sum.plane();
             let mut verified = Vec::new();
-            // Coarse on the voting grid, then every pixel.
+            // Coarse on the voting grid, then every pixel. (A grid of every other pixel at
+            // 320 × 240 too verified fewer pieces of the mirror with EFSM: 0.171% wrong points
+            // on sphere_mirror instead of 0.121%.)
             let stride = pairs.stride;
             for (window, stride) in [(3, stride), (2, stride), (1, stride), (1, 1)] {
                 verified = verifier.verify(plane.0, plane.1, window, stride);
@@ -390,15 +445,17 @@ pub fn mirror_images(
         })
         .collect();
     found.sort_by(|a, b| b.0.len().cmp(&a.0.len()).then(a.2.total_cmp(&b.2)));
-    let mut mirrors: Vec<Mirror> = Vec::new();
-    let mut fictitious = vec![false; points.len()];
-    // Pixels that verified a mirror already found: another plane they verify is the same
-    // mirror, seen slightly turned.
+    let hidden_by = |mirror: &Mirror| -> Vec<bool> {
+        points
+            .iter()
+            .map(|p| p.is_some_and(|p| mirror.hides(p, pairs.projector, params.behind_mm)))
+            .collect()
+    };
+    // The mirrors found, each with the points it hides.
+    let mut accepted: Vec<(Mirror, Vec<bool>)> = Vec::new();
+    // Pixels that verified a plane taken already: a plane they verify again adds nothing.
     let mut claimed = vec![false; points.len()];
     for (verified, n, off) in found {
-        if mirrors.len() >= params.max_mirrors {
-            break;
-        }
         let fresh = verified.iter().filter(|(q, _)| !claimed[*q]).count();
         if fresh < params.min_pixels {
             continue;
@@ -407,18 +464,42 @@ pub fn mirror_images(
         if !verifier.is_mirror(&mirror, verified.len(), 1) {
             continue;
         }
+        let hides = hidden_by(&mirror);
         for (q, _) in &verified {
             claimed[*q] = true;
         }
-        for (i, p) in points.iter().enumerate() {
-            if p.is_some_and(|p| mirror.hides(p, pairs.projector, params.behind_mm)) {
-                fictitious[i] = true;
+        // Verified mostly by virtual images a mirror found hides, its normal near that
+        // mirror's: the same mirror, its plane fitted to another part of it (EFSM's noisier
+        // points give such pieces). What it hides counts; it is not another mirror.
+        let same = accepted.iter().position(|(m, h)| {
+            let shared = verified.iter().filter(|(q, _)| h[*q]).count();
+            2 * shared >= verified.len()
+                && Vec3::from(m.normal).dot(&n) >= SAME_MIRROR_DEG.to_radians().cos()
+        });
+        match same {
+            Some(k) => {
+                let (m, h) = &mut accepted[k];
+                m.pixels += fresh;
+                for (a, b) in h.iter_mut().zip(&hides) {
+                    *a |= *b;
+                }
             }
+            None if accepted.len() < params.max_mirrors => accepted.push((mirror, hides)),
+            None => {}
         }
-        mirrors.push(mirror);
     }
-    (mirrors, fictitious)
+    let mut fictitious = vec![false; points.len()];
+    for (_, hides) in &accepted {
+        for (f, h) in fictitious.iter_mut().zip(hides) {
+            *f |= *h;
+        }
+    }
+    (accepted.into_iter().map(|a| a.0).collect(), fictitious)
 }
+
+/// Planes within this angle (degrees) of a mirror found, verified mostly by the virtual images
+/// it hides, are that mirror.
+const SAME_MIRROR_DEG: f32 = 10.0;
 
 /// Checks a mirror plane against the scan: a pixel verifies it when its chosen point,
 /// reflected in the plane, lands on the point that another pixel measured, and the two pixels
@@ -484,8 +565,10 @@ impl Verifier<'_> {
                 pixel.x.round() as i64,
                 pixel.y.round() as i64 - self.first_row as i64,
             );
-            // The measured point nearest the reflection, among the pixels around it that hold
-            // `c1` and whose chosen column `q` holds.
+            // `W`: the measured point nearest the reflection, among the pixels around it that
+            // hold `c1` and whose chosen column `q` holds. (Taking the best match of columns
+            // instead, which does not depend on the plane, verified fewer pixels: on
+            // sphere_mirror with EFSM, 0.149% wrong points against 0.121%.)
             let mut best: Option<(f32, Vec3)> = None;
             for dy in -window..=window {
                 for dx in -window..=window {

@@ -3,7 +3,8 @@
 //! the calibration's column limits, triangulate, select, and score against the ground truth.
 //!
 //! [`scan_capture`] is the one path from a simulated capture to a [`Surface`]; [`run`] scans
-//! `plane_mirror`, `plane_mirror_covered` and `vgroove_glossy` with every method of [`Plans`] and
+//! `plane_mirror`, `plane_mirror_covered`, `sphere_mirror` and `vgroove_glossy` with every method
+//! of [`Plans`] and
 //! writes each scan's outputs, [`markdown`] and [`html`] turn the [`Report`] into `report.md`
 //! and `report.html` (one document, two renderers: `document.rs`).
 
@@ -124,6 +125,8 @@ pub struct MethodReport {
     pub e_no_i_percent_of_standoff: f64,
     /// EwiI as a share of the standoff, %.
     pub e_wi_i_percent_of_standoff: f64,
+    /// The method on `sphere_mirror`.
+    pub sphere: SphereFigures,
     /// The method on `vgroove_glossy`.
     pub glossy: GlossyFigures,
     /// Seconds for the method's three scans.
@@ -144,6 +147,18 @@ pub struct GlossyFigures {
     pub points_within_half_column: f64,
     /// Every output point of the scene against the true surface points.
     pub points: PointErrors,
+}
+
+/// A method on `sphere_mirror`: a diffuse sphere before a wall, a plane mirror beside them that
+/// lights the sphere and shows the wall.
+#[derive(Serialize, Clone, Copy, Debug)]
+pub struct SphereFigures {
+    /// Every output point of the scene against the true surface points.
+    pub points: PointErrors,
+    /// Pixels whose point a plane mirror found by the scan hides (virtual images).
+    pub behind_mirror: usize,
+    /// Plane mirrors the scan found.
+    pub mirrors: usize,
 }
 
 /// `report.json`.
@@ -267,6 +282,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
         ("plane_mirror", transport("plane_mirror")?),
         ("plane_mirror_covered", transport("plane_mirror_covered")?),
     ];
+    let sphere = transport("sphere_mirror")?;
     let glossy = transport("vgroove_glossy")?;
     let plans = Plans::paper();
     let params = SelectionParams::for_calibration(&system.calibration);
@@ -276,20 +292,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
         let started = Instant::now();
         let mut surfaces = Vec::new();
         for (scene, t) in &scenes {
-            let capture = capture_of(&method, t, system, Sensor::default(), seed)?;
-            let scanned = scan_capture(&capture, &method, system, &params)?;
-            let dir = out.join(format!("{}/{scene}", name.to_lowercase()));
-            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-            let summary = ScanSummary::new(
-                name,
-                method.patterns().fingerprint(),
-                &scanned.decoded,
-                &scanned.surface,
-                &params,
-                &system.calibration,
-                scanned.seconds,
-            );
-            write_scan(&dir, &scanned.surface, &summary)?;
+            let (scanned, _) = scan_and_write(&method, name, scene, t, system, &params, seed, out)?;
             if truth_pixels.is_empty() {
                 truth_pixels = scanned.truth;
             }
@@ -306,6 +309,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
             &surfaces[0],
             &direct_column,
         )?;
+        let sphere = sphere_figures(&method, &sphere, system, &params, seed, out, name)?;
         let glossy = glossy_figures(&method, &glossy, system, &params, seed)?;
         let seconds = started.elapsed().as_secs_f64();
         progress(&format!(
@@ -323,6 +327,7 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
             e_d_percent_of_standoff: 100.0 * figures.e_d_mm / STANDOFF_MM,
             e_no_i_percent_of_standoff: 100.0 * figures.e_no_i_mm / STANDOFF_MM,
             e_wi_i_percent_of_standoff: 100.0 * figures.e_wi_i_mm / STANDOFF_MM,
+            sphere,
             glossy,
             seconds,
         });
@@ -349,6 +354,65 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
             .filter(|t| t.is_interreflection())
             .count(),
         methods: reports,
+    })
+}
+
+/// Captures `scene` (its `transport`) with `method` (named `name`), scans it and writes the
+/// scan's outputs into `out/<name>/<scene>/` as `fsm scan` does.
+#[allow(clippy::too_many_arguments)]
+fn scan_and_write(
+    method: &MethodPlan,
+    name: &str,
+    scene: &str,
+    transport: &Arc<LightTransport>,
+    system: &System,
+    params: &SelectionParams,
+    seed: u64,
+    out: &Path,
+) -> Result<(Scanned, ScanSummary)> {
+    let capture = capture_of(method, transport, system, Sensor::default(), seed)?;
+    let scanned = scan_capture(&capture, method, system, params)?;
+    let dir = out.join(format!("{}/{scene}", name.to_lowercase()));
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let summary = ScanSummary::new(
+        name,
+        method.patterns().fingerprint(),
+        &scanned.decoded,
+        &scanned.surface,
+        params,
+        &system.calibration,
+        scanned.seconds,
+    );
+    write_scan(&dir, &scanned.surface, &summary)?;
+    Ok((scanned, summary))
+}
+
+/// Scans `sphere_mirror` with `method`, writes the scan's outputs into
+/// `out/<method>/sphere_mirror/`, and scores its points against the truth.
+fn sphere_figures(
+    method: &MethodPlan,
+    transport: &Arc<LightTransport>,
+    system: &System,
+    params: &SelectionParams,
+    seed: u64,
+    out: &Path,
+    name: &str,
+) -> Result<SphereFigures> {
+    let (scanned, summary) = scan_and_write(
+        method,
+        name,
+        "sphere_mirror",
+        transport,
+        system,
+        params,
+        seed,
+        out,
+    )?;
+    let (truth_mm, lit) = truth_points(&scanned.truth);
+    Ok(SphereFigures {
+        points: point_errors(&scanned.surface.point_mm, &truth_mm, &lit, WRONG_BEYOND_MM),
+        behind_mirror: summary.no_point.behind_mirror,
+        mirrors: scanned.surface.mirrors.len(),
     })
 }
 
@@ -441,6 +505,15 @@ pub fn write_reports(dir: &Path, report: &Report) -> Result<()> {
     write_file(&dir.join("report.html"), html(report).as_bytes())
 }
 
+/// The columns every table has of a scene's output points against the truth.
+const POINTS_OFF: &str = "points > 1 mm off";
+const LIT_RIGHT: &str = "directly lit pixels with a right point";
+
+/// A share as a table cell, in percent with two decimals.
+fn percent(share: f64) -> Cell {
+    Cell::Text(format!("{:.2}%", 100.0 * share))
+}
+
 /// The report's content, once for both formats: prose, tables and pictures.
 fn document(report: &Report) -> Document {
     let text = Cell::Text;
@@ -471,8 +544,8 @@ fn document(report: &Report) -> Document {
         "EnoI mm",
         "EwiI mm",
         "completeness",
-        "points > 1 mm off",
-        "directly lit pixels with a right point",
+        POINTS_OFF,
+        LIT_RIGHT,
     ]);
     for m in &report.methods {
         let f = &m.figures;
@@ -494,8 +567,8 @@ fn document(report: &Report) -> Document {
             text(format!("{:.4}", f.e_no_i_mm)),
             text(format!("{:.4}", f.e_wi_i_mm)),
             text(format!("{:.1}%", 100.0 * f.completeness)),
-            text(format!("{:.2}%", 100.0 * m.points.wrong_share())),
-            text(format!("{:.2}%", 100.0 * m.points.completeness())),
+            percent(m.points.wrong_share()),
+            percent(m.points.completeness()),
         ]);
     }
     blocks.push(Block::Table(main));
@@ -526,6 +599,37 @@ fn document(report: &Report) -> Document {
             .into(),
     ));
     blocks.push(Block::Heading(
+        "A mirror that lights a curved surface and shows the wall: `sphere_mirror`".into(),
+    ));
+    blocks.push(Block::Paragraph(
+        "A diffuse sphere (radius 45 mm) before the wall, a plane mirror beside them. The mirror lights the \
+         sphere and the wall in the sphere's shadow, and the pixels that see it see the wall in it: their \
+         light triangulates to a virtual wall behind the mirror, consistent with camera and projector alike. \
+         The scan finds the mirror from the pixels that see, in it, wall the projector lights directly, and \
+         removes what the mirror hides (`docs/scan.md`)."
+            .into(),
+    ));
+    let mut sphere = Table::new(&[
+        "method",
+        "points",
+        POINTS_OFF,
+        LIT_RIGHT,
+        "mirrors found",
+        "virtual images removed",
+    ]);
+    for m in &report.methods {
+        let f = &m.sphere;
+        sphere.push(vec![
+            text(m.method.to_string()),
+            text(f.points.points.to_string()),
+            percent(f.points.wrong_share()),
+            percent(f.points.completeness()),
+            text(f.mirrors.to_string()),
+            text(f.behind_mirror.to_string()),
+        ]);
+    }
+    blocks.push(Block::Table(sphere));
+    blocks.push(Block::Heading(
         "Glossy interreflection: `vgroove_glossy`".into(),
     ));
     blocks.push(Block::Paragraph(
@@ -539,8 +643,8 @@ fn document(report: &Report) -> Document {
         "direct column among the candidates",
         "with a point",
         "points within 0.5 column",
-        "points > 1 mm off",
-        "directly lit pixels with a right point",
+        POINTS_OFF,
+        LIT_RIGHT,
     ]);
     for m in &report.methods {
         let g = &m.glossy;
@@ -550,14 +654,15 @@ fn document(report: &Report) -> Document {
             text(format!("{:.2}%", 100.0 * g.direct_among_candidates)),
             text(format!("{:.1}%", 100.0 * g.completeness)),
             text(format!("{:.2}%", 100.0 * g.points_within_half_column)),
-            text(format!("{:.2}%", 100.0 * g.points.wrong_share())),
-            text(format!("{:.2}%", 100.0 * g.points.completeness())),
+            percent(g.points.wrong_share()),
+            percent(g.points.completeness()),
         ]);
     }
     blocks.push(Block::Table(glossy));
     // The pictures `run` wrote for each method, with what each shows.
     let views = [
         ("depth with the mirror", "plane_mirror/depth.png"),
+        ("depth, sphere_mirror", "sphere_mirror/depth.png"),
         ("direct light", "plane_mirror/direct.png"),
         ("indirect light", "plane_mirror/indirect.png"),
         ("column error (0–1 column)", "column_error.png"),

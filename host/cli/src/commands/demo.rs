@@ -58,7 +58,7 @@ pub fn run(args: Args) -> Result<()> {
     let staged = StagedDir::create(&args.out, args.force)?;
     let system = System::bench_with_camera(args.camera.0, args.camera.1);
     eprintln!(
-        "fsm demo: simulating plane_mirror, plane_mirror_covered and vgroove_glossy ({}x{} camera)…",
+        "fsm demo: simulating plane_mirror, plane_mirror_covered, sphere_mirror and vgroove_glossy ({}x{} camera)…",
         system.width(),
         system.height()
     );

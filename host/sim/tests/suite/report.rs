@@ -3,7 +3,7 @@
 //! what a browser would read otherwise (the full demo's reports: the CLI's demo test).
 
 use fsm_scan::metrics::{ColumnErrors, Comparison, PointErrors};
-use fsm_sim::comparison::{html, markdown, GlossyFigures, MethodReport, Report};
+use fsm_sim::comparison::{html, markdown, GlossyFigures, MethodReport, Report, SphereFigures};
 
 use crate::support::{read_html, read_markdown, Block, Picture};
 
@@ -45,6 +45,11 @@ fn method(name: &'static str, k: f64) -> MethodReport {
         e_d_percent_of_standoff: 0.002 * k,
         e_no_i_percent_of_standoff: 0.0016 * k,
         e_wi_i_percent_of_standoff: 0.0018 * k,
+        sphere: SphereFigures {
+            points,
+            behind_mirror: 200,
+            mirrors: 1,
+        },
         glossy: GlossyFigures {
             pixels: 500,
             direct_among_candidates: 0.97,
@@ -80,8 +85,16 @@ fn the_html_report_says_what_the_markdown_report_says() {
     assert!(page.blocks.contains(&Block::Heading(
         "Glossy interreflection: vgroove_glossy".into()
     )));
+    assert!(page.blocks.contains(&Block::Heading(
+        "A mirror that lights a curved surface and shows the wall: sphere_mirror".into()
+    )));
     let tables = page.tables();
-    assert_eq!(tables.len(), 3, "{tables:?}");
+    assert_eq!(tables.len(), 4, "{tables:?}");
+    assert_eq!(
+        tables[1].1[2],
+        ["LS", "1000", "3.00%", "98.89%", "1", "200"],
+        "the sphere_mirror table"
+    );
     let (header, rows) = tables[0];
     assert_eq!(header[4], "Ed mm (% standoff)");
     assert_eq!(
@@ -100,7 +113,7 @@ fn the_html_report_says_what_the_markdown_report_says() {
         ]
     );
     let pictures = page.pictures();
-    assert_eq!(pictures.len(), 1 + 3 * 4);
+    assert_eq!(pictures.len(), 1 + 3 * 5);
     assert_eq!(
         pictures[0],
         Picture {
