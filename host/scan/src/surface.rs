@@ -3,16 +3,16 @@
 //! images (eqs. 12–13).
 
 use fsm_geometry::Calibration;
-use serde::Serialize;
-
 use fsm_io::candidate_image::CandidateImage;
+use rayon::prelude::*;
+use serde::Serialize;
 
 use crate::mirror::{mirror_images, Mirror, MirrorParams};
 use crate::ply::PlyPoint;
-use crate::selection::{distance_mm, neighbours};
-use crate::selection::{select, CandidateField, Selection, SelectionParams};
+use crate::selection::{
+    distance_mm, neighbours, select, CandidateField, Selection, SelectionParams,
+};
 use crate::visibility::{fictitious_points, VisibilityParams};
-use rayon::prelude::*;
 
 /// Why a pixel has no point: every pixel without one has a reason on record.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -37,9 +37,9 @@ pub enum NoPoint {
     /// A plane mirror hides the chosen point from the camera or the projector: it is a
     /// virtual image ([`crate::mirror`]).
     BehindMirror,
-    /// The pixel straddles a depth edge: a neighbour chose a point on another surface, and
-    /// the pixel holds that surface's light too, so its footprint sees both sides and its
-    /// point may belong to either.
+    /// The pixel straddles a depth edge: a neighbour chose a point on another surface, the
+    /// pixel holds that surface's light too and the neighbour not the pixel's, so its
+    /// footprint sees both sides and its point may belong to either.
     Edge,
 }
 
@@ -135,14 +135,11 @@ impl Surface {
         surface
     }
 
-    /// Removes the points of pixels that straddle a depth edge ([`NoPoint::Edge`]): one of
-    /// the 8 neighbours chose a point more than `reach_mm` from the pixel's, and the pixel
-    /// holds a candidate within `reach_mm` of that neighbour's point. Judged on the choices as
-    /// the selection made them, all pixels at once.
-    ///
-    /// `edges` (from [`Surface::edges`]) is judged on the selection's choices, before any is
-    /// dropped: a neighbour whose point later goes (a virtual image, a fictitious surface)
-    /// still received the other side's light, so the pixel beside it still straddles.
+    /// Removes the points of the pixels that `edges` ([`Surface::edges`]) marks as straddling
+    /// a depth edge ([`NoPoint::Edge`]). The marks are made on the selection's choices, before
+    /// any is dropped: a neighbour whose point later goes (a virtual image, a fictitious
+    /// surface) still received the other side's light, so the pixel beside it still
+    /// straddles.
     pub fn drop_edges(&mut self, edges: &[bool]) {
         for (i, e) in edges.iter().enumerate() {
             if *e && self.point_mm[i].is_some() {
