@@ -25,6 +25,8 @@ mod commands;
 use std::io::Write;
 use std::process::ExitCode;
 
+use clap::{Parser, Subcommand};
+
 /// Writes to standard output. When the reader has closed it (`fsm camera info | head -1`), the
 /// run ends quietly as a Unix tool's does on SIGPIPE, with exit status 141 (128 + 13), after
 /// removing any output it had not committed; another write error ends it with status 1.
@@ -38,8 +40,6 @@ fn write_stdout(text: std::fmt::Arguments) {
         std::process::exit(1);
     }
 }
-
-use clap::{Parser, Subcommand};
 
 /// Structured-light scanning through interreflections with the Frequency Shift Method.
 ///

@@ -42,8 +42,9 @@ use rayon::prelude::*;
 pub struct MirrorParams {
     /// Columns within this of each other are the same light.
     pub column_tolerance: f32,
-    /// Distance (mm) within which points agree with a plane, and beyond which a point is
-    /// behind it.
+    /// Distance (mm) within which planes' offsets agree, a reflection lands on a measured
+    /// point (twice this), and a point counts as on a plane when verifying it; pairs closer
+    /// than four times this do not vote.
     pub tolerance_mm: f32,
     /// A point more than this (mm) beyond a mirror's plane, seen or lit through the mirror,
     /// is hidden by it; nearer, it may be a surface the mirror touches.
@@ -234,9 +235,12 @@ fn key(cell: [i32; 3]) -> u64 {
     part(cell[0]) << 42 | part(cell[1]) << 21 | part(cell[2])
 }
 
-/// Whether pixel `i` of an image `width` wide is on the grid of `stride`.
-fn on_grid(i: usize, width: usize, stride: usize) -> bool {
-    (i % width).is_multiple_of(stride) && (i / width).is_multiple_of(stride)
+/// The pixels of a `width × height` image whose coordinates are both multiples of `stride`,
+/// row by row.
+fn grid(width: usize, height: usize, stride: usize) -> impl Iterator<Item = usize> {
+    (0..height)
+        .step_by(stride)
+        .flat_map(move |y| (0..width).step_by(stride).map(move |x| y * width + x))
 }
 
 /// The pixels that verify a plane, each with the pair that does.
@@ -259,44 +263,43 @@ struct Pairs<'a> {
 
 impl Pairs<'_> {
     /// The pixels of the grid of `stride`, row by row.
-    fn grid(&self, stride: usize) -> impl Iterator<Item = usize> + '_ {
-        let width = self.candidates.width();
-        (0..self.candidates.height())
-            .step_by(stride)
-            .flat_map(move |y| (0..width).step_by(stride).map(move |x| y * width + x))
+    fn grid(&self, stride: usize) -> impl Iterator<Item = usize> {
+        grid(self.candidates.width(), self.candidates.height(), stride)
+    }
+
+    /// Whether pixel `i` holds a light within twice the column tolerance of `column`.
+    fn holds(&self, i: usize, column: f32) -> bool {
+        let tol = 2.0 * self.params.column_tolerance;
+        self.candidates
+            .candidates(i)
+            .iter()
+            .any(|c| (c.column - column).abs() <= tol)
     }
 
     /// Calls `f(bisector)` for every pair of pixel `q` (of the voting grid).
     fn of_pixel(&self, q: usize, mut f: impl FnMut(Bisector)) {
         let tol = self.params.column_tolerance;
         let min_mm = 4.0 * self.params.tolerance_mm;
-        {
-            let (Some(x), Some(c1)) = (self.points[q], self.columns[q]) else {
-                return;
-            };
-            for other in self.candidates.candidates(q) {
-                let c2 = other.column;
-                if (c2 - c1).abs() <= 2.0 * tol {
+        let (Some(x), Some(c1)) = (self.points[q], self.columns[q]) else {
+            return;
+        };
+        for other in self.candidates.candidates(q) {
+            let c2 = other.column;
+            if (c2 - c1).abs() <= 2.0 * tol {
+                continue;
+            }
+            let start = self.by_column.partition_point(|e| e.0 < c2 - tol);
+            for &(_, p) in self.by_column[start..]
+                .iter()
+                .take_while(|e| e.0 <= c2 + tol)
+            {
+                let p = p as usize;
+                if !self.holds(p, c1) {
                     continue;
                 }
-                let start = self.by_column.partition_point(|e| e.0 < c2 - tol);
-                for &(_, p) in self.by_column[start..]
-                    .iter()
-                    .take_while(|e| e.0 <= c2 + tol)
-                {
-                    let p = p as usize;
-                    let holds = self
-                        .candidates
-                        .candidates(p)
-                        .iter()
-                        .any(|c| (c.column - c1).abs() <= 2.0 * tol);
-                    if !holds {
-                        continue;
-                    }
-                    let w = Vec3::from(self.points[p].expect("chosen"));
-                    if let Some(b) = Bisector::of(Vec3::from(x), w, self.projector, min_mm) {
-                        f(b);
-                    }
+                let w = Vec3::from(self.points[p].expect("chosen"));
+                if let Some(b) = Bisector::of(Vec3::from(x), w, self.projector, min_mm) {
+                    f(b);
                 }
             }
         }
@@ -325,13 +328,8 @@ pub fn mirror_images(
     let o = calibration.projector_centre_mm();
     // About 320 × 240 pixels vote, whatever the image's size.
     let stride = ((points.len() as f64 / 76_800.0).sqrt().round() as usize).max(1);
-    let width = candidates.width();
-    let mut by_column: Vec<(f32, u32)> = columns
-        .iter()
-        .zip(points)
-        .enumerate()
-        .filter(|(i, _)| on_grid(*i, width, stride))
-        .filter_map(|(i, (c, p))| p.and(*c).map(|c| (c, i as u32)))
+    let mut by_column: Vec<(f32, u32)> = grid(candidates.width(), candidates.height(), stride)
+        .filter_map(|i| points[i].and(columns[i]).map(|c| (c, i as u32)))
         .collect();
     by_column.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     let pairs = Pairs {
@@ -414,8 +412,6 @@ pub fn mirror_images(
     let verifier = Verifier {
         calibration,
         pairs: &pairs,
-        first_row: candidates.first_row(),
-        width: candidates.width(),
     };
     // Each hypothesis starts from the mean plane of the votes around its cell.
     let mut found: Vec<(Verified, Vec3, f32)> = hypotheses
@@ -436,7 +432,11 @@ pub fn mirror_images(
                 if window == 1 && stride > 1 {
                     // The share test on the grid first, where it is cheap.
                     let mirror = Mirror::new(plane.0, plane.1, &verified);
-                    if !verifier.is_mirror(&mirror, verified.len(), stride) {
+                    let hidden = pairs.grid(stride).filter(|&i| {
+                        pairs.points[i]
+                            .is_some_and(|p| mirror.hides(p, pairs.projector, params.behind_mm))
+                    });
+                    if !verifier.is_mirror(verified.len(), hidden) {
                         return None;
                     }
                 }
@@ -461,10 +461,10 @@ pub fn mirror_images(
             continue;
         }
         let mirror = Mirror::new(n, off, &verified);
-        if !verifier.is_mirror(&mirror, verified.len(), 1) {
+        let hides = hidden_by(&mirror);
+        if !verifier.is_mirror(verified.len(), (0..hides.len()).filter(|&i| hides[i])) {
             continue;
         }
-        let hides = hidden_by(&mirror);
         for (q, _) in &verified {
             claimed[*q] = true;
         }
@@ -507,24 +507,17 @@ const SAME_MIRROR_DEG: f32 = 10.0;
 struct Verifier<'a> {
     calibration: &'a Calibration,
     pairs: &'a Pairs<'a>,
-    first_row: usize,
-    width: usize,
 }
 
 impl Verifier<'_> {
     /// A real mirror hides little besides virtual images that verify it. A plane that pairs
     /// of real points happen to bisect hides real surface: many points that hold two lights or
-    /// more (that could verify it) and do not. `verified` pixels of the grid of `stride`
-    /// verify `mirror`.
-    fn is_mirror(&self, mirror: &Mirror, verified: usize, stride: usize) -> bool {
+    /// more (that could verify it) and do not. `verified` pixels verify the plane; `hidden`
+    /// are the pixels (of the same grid) whose points it hides.
+    fn is_mirror(&self, verified: usize, hidden: impl Iterator<Item = usize>) -> bool {
         let pairs = self.pairs;
-        let could_verify = pairs
-            .grid(stride)
+        let could_verify = hidden
             .filter(|&i| pairs.candidates.candidates(i).len() >= 2)
-            .filter(|&i| {
-                pairs.points[i]
-                    .is_some_and(|p| mirror.hides(p, pairs.projector, pairs.params.behind_mm))
-            })
             .count();
         verified as f32 >= pairs.params.min_share * could_verify as f32
     }
@@ -534,8 +527,7 @@ impl Verifier<'_> {
     fn verify(&self, normal: Vec3, offset_mm: f32, window: i64, stride: usize) -> Verified {
         let pairs = self.pairs;
         let params = &pairs.params;
-        let tol = params.column_tolerance;
-        let height = pairs.points.len() / self.width;
+        let (width, height) = (pairs.candidates.width(), pairs.candidates.height());
         let mut verified = Vec::new();
         if normal.dot(&pairs.projector) - offset_mm >= 0.0 || offset_mm <= 0.0 {
             return verified;
@@ -544,8 +536,7 @@ impl Verifier<'_> {
             let (Some(x), Some(c1)) = (pairs.points[q], pairs.columns[q]) else {
                 continue;
             };
-            let held = pairs.candidates.candidates(q);
-            if held.len() < 2 {
+            if pairs.candidates.candidates(q).len() < 2 {
                 continue;
             }
             let x = Vec3::from(x);
@@ -563,7 +554,7 @@ impl Verifier<'_> {
             };
             let (px, py) = (
                 pixel.x.round() as i64,
-                pixel.y.round() as i64 - self.first_row as i64,
+                pixel.y.round() as i64 - pairs.candidates.first_row() as i64,
             );
             // `W`: the measured point nearest the reflection, among the pixels around it that
             // hold `c1` and whose chosen column `q` holds. (Taking the best match of columns
@@ -573,10 +564,10 @@ impl Verifier<'_> {
             for dy in -window..=window {
                 for dx in -window..=window {
                     let (x_p, y_p) = (px + dx * stride as i64, py + dy * stride as i64);
-                    if x_p < 0 || y_p < 0 || x_p >= self.width as i64 || y_p >= height as i64 {
+                    if x_p < 0 || y_p < 0 || x_p >= width as i64 || y_p >= height as i64 {
                         continue;
                     }
-                    let p = y_p as usize * self.width + x_p as usize;
+                    let p = y_p as usize * width + x_p as usize;
                     let (Some(measured), Some(c2)) = (pairs.points[p], pairs.columns[p]) else {
                         continue;
                     };
@@ -584,13 +575,9 @@ impl Verifier<'_> {
                     let distance = (measured - w).norm_squared();
                     if best.is_some_and(|b| b.0 <= distance)
                         || distance > (2.0 * params.tolerance_mm).powi(2)
-                        || (c2 - c1).abs() <= 2.0 * tol
-                        || !held.iter().any(|c| (c.column - c2).abs() <= 2.0 * tol)
-                        || !pairs
-                            .candidates
-                            .candidates(p)
-                            .iter()
-                            .any(|c| (c.column - c1).abs() <= 2.0 * tol)
+                        || (c2 - c1).abs() <= 2.0 * params.column_tolerance
+                        || !pairs.holds(q, c2)
+                        || !pairs.holds(p, c1)
                     {
                         continue;
                     }

@@ -38,7 +38,7 @@ pub struct ScanSummary {
     pub points: usize,
     /// Pixels without a point, by reason.
     pub no_point: NoPointCounts,
-    /// The plane mirrors found, whose virtual images were removed (`no_point.fictitious`).
+    /// The plane mirrors found, whose virtual images were removed (`no_point.behind_mirror`).
     pub mirrors: Vec<crate::mirror::Mirror>,
     /// Rows the capture held no valid samples for (dump records skipped with
     /// `--skip-bad-rows`): their pixels count as `no_point.no_data`.
