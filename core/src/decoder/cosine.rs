@@ -164,6 +164,40 @@ pub(super) trait Path<const L: usize> {
         scratch: &mut [Lanes<L>],
     ) -> Result<(), TransformError>;
     fn find_lit(search: &mut Search, profile: &[Lanes<L>], thresholds: &[f32; L]);
+
+    /// One group of a chunk: [`Path::load`], [`Path::inverse`] and [`Path::find_lit`]. These
+    /// lane loops do not depend on the candidate capacity `K`, so each path compiles them
+    /// once, in this crate, and the row loops of every `K` in every crate call that copy.
+    /// Inlined into the row loops instead, they were compiled again for each `K` in each
+    /// dependant: the workspace's test build took 1,762 s of CPU, 629 s without.
+    #[inline(always)]
+    fn group(lanes: GroupLanes<'_, '_, L>) -> Result<u32, TransformError> {
+        group_with::<L, Self>(lanes)
+    }
+}
+
+/// The arguments of [`Path::group`]: a chunk's group, its fringes and its working space.
+pub(super) struct GroupLanes<'a, 'r, const L: usize> {
+    transform: &'a CosineTransform<'a>,
+    row: &'a Row<'r>,
+    x0: usize,
+    start: usize,
+    refs: &'a [References],
+    thresholds: &'a [f32; L],
+    profile: &'a mut [Lanes<L>],
+    work: &'a mut [Lanes<L>],
+    search: &'a mut Search,
+}
+
+/// [`Path::group`]'s lane loops, inlined into the function that enters them.
+#[inline(always)]
+fn group_with<const L: usize, P: Path<L> + ?Sized>(
+    lanes: GroupLanes<'_, '_, L>,
+) -> Result<u32, TransformError> {
+    let saturated = P::load(lanes.row, lanes.x0, lanes.start, lanes.refs, lanes.profile);
+    P::inverse(lanes.transform, lanes.profile, lanes.work)?;
+    P::find_lit(lanes.search, lanes.profile, lanes.thresholds);
+    Ok(saturated)
 }
 
 /// Implements [`Path`]'s loops for one vector type `V` of `W` lanes, as many lanes as a
@@ -221,13 +255,48 @@ impl<const L: usize> Path<L> for Portable {
         }
         search.find_lit::<L, 1, f32>(profile, thresholds)
     }
+    fn group(lanes: GroupLanes<'_, '_, L>) -> Result<u32, TransformError> {
+        portable_group::<L>(lanes)
+    }
 }
+
+/// [`Portable`]'s group, not inlined: a dependant links this crate's copy for
+/// [`super::DEFAULT_LANES`] ([`SHARED`]) rather than compiling its own.
+// `inline(never)`: a generic function's copy is shared with dependants only then.
+#[inline(never)]
+fn portable_group<const L: usize>(lanes: GroupLanes<'_, '_, L>) -> Result<u32, TransformError> {
+    group_with::<L, Portable>(lanes)
+}
+
+/// The generic functions this crate compiles for its dependants at the build's lane count
+/// and at one lane ([`Decoder::decode_row_lanes`] of the DFT searches): the portable group
+/// and the lights. Dependants link these copies instead of compiling their own; the x86-64
+/// paths' groups are not generic, their lights are in `x86`.
+#[used]
+static SHARED: (
+    PortableGroup<{ super::DEFAULT_LANES }>,
+    PortableGroup<1>,
+    FindLights<{ super::DEFAULT_LANES }>,
+    FindLights<1>,
+) = (
+    portable_group::<{ super::DEFAULT_LANES }>,
+    portable_group::<1>,
+    search::find_lights::<{ super::DEFAULT_LANES }>,
+    search::find_lights::<1>,
+);
+
+/// [`portable_group`]'s signature.
+type PortableGroup<const L: usize> = fn(GroupLanes<'_, '_, L>) -> Result<u32, TransformError>;
+
+/// [`search::find_lights`]' signature.
+type FindLights<const L: usize> =
+    fn(&ScanPlan, &[Lanes<L>], usize, f32, &mut Search, &mut [f32], &mut PeakList);
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::{
-        decode_row, load_with, Decoder, Path, PixelCandidates, References, Row, Search,
-        TransformError,
+        decode_row, group_with, load_with, search, Decoder, FindLights, GroupLanes, Path,
+        PixelCandidates, References, Row, Search, TransformError,
     };
     use crate::transform::simd::{F16, F8};
     use crate::transform::{CosineTransform, Lanes};
@@ -247,6 +316,13 @@ mod x86 {
         ) -> Result<(), TransformError> {
             transform.inverse_with::<8, 8, F8>(data, scratch)
         }
+        #[inline(always)]
+        #[allow(unsafe_code)]
+        fn group(lanes: GroupLanes<'_, '_, 8>) -> Result<u32, TransformError> {
+            // SAFETY: `Avx2` is only a path of `decode_avx2`, which `decode_row_fastest`
+            // enters where `Isa::detect` found AVX2.
+            unsafe { group_avx2(lanes) }
+        }
     }
 
     impl Path<16> for Avx512 {
@@ -259,9 +335,34 @@ mod x86 {
         ) -> Result<(), TransformError> {
             transform.inverse_with::<16, 16, F16>(data, scratch)
         }
+        #[inline(always)]
+        #[allow(unsafe_code)]
+        fn group(lanes: GroupLanes<'_, '_, 16>) -> Result<u32, TransformError> {
+            // SAFETY: `Avx512` is only a path of `decode_avx512`, which `decode_row_fastest`
+            // enters where `Isa::detect` found AVX-512F.
+            unsafe { group_avx512(lanes) }
+        }
     }
 
-    /// The row's loop compiled for AVX2 (every lane loop inlined into it).
+    /// The lights of the x86-64 paths' lane counts, compiled here for the dependants (see
+    /// [`super::SHARED`]).
+    #[used]
+    static SHARED: (FindLights<8>, FindLights<16>) =
+        (search::find_lights::<8>, search::find_lights::<16>);
+
+    /// [`Avx2`]'s group, compiled once here for every crate (not generic).
+    #[target_feature(enable = "avx2")]
+    fn group_avx2(lanes: GroupLanes<'_, '_, 8>) -> Result<u32, TransformError> {
+        group_with::<8, Avx2>(lanes)
+    }
+
+    /// [`Avx512`]'s group, compiled once here for every crate (not generic).
+    #[target_feature(enable = "avx512f")]
+    fn group_avx512(lanes: GroupLanes<'_, '_, 16>) -> Result<u32, TransformError> {
+        group_with::<16, Avx512>(lanes)
+    }
+
+    /// The row's loop compiled for AVX2 (its groups' lane loops are [`group_avx2`]).
     #[target_feature(enable = "avx2")]
     pub(super) fn decode_avx2<const K: usize>(
         decoder: &Decoder<'_>,
@@ -273,7 +374,7 @@ mod x86 {
         decode_row::<8, K, Avx2>(decoder, transform, row, scratch, out)
     }
 
-    /// The row's loop compiled for AVX-512F.
+    /// The row's loop compiled for AVX-512F (its groups' lane loops are [`group_avx512`]).
     #[target_feature(enable = "avx512f")]
     pub(super) fn decode_avx512<const K: usize>(
         decoder: &Decoder<'_>,
@@ -354,17 +455,25 @@ pub(super) fn decode_pixels<const L: usize, const K: usize, P: Path<L>>(
         }
     }
     let mut troubled = [true; L];
+    let noise: [f32; L] =
+        core::array::from_fn(|l| profile_noise_dn(refs[l].sample_noise_dn, span as u16));
+    let thresholds = noise.map(|n| plan.decoding.noise_factor * n);
     for group in plan.groups() {
-        let start = decoder.frames[group.index()].fringe_start;
-        let saturated = P::load(row, x0, start, &refs[..lanes], profile);
+        let lanes_of_group = GroupLanes {
+            transform,
+            row,
+            x0,
+            start: decoder.frames[group.index()].fringe_start,
+            refs: &refs[..lanes],
+            thresholds: &thresholds,
+            profile: &mut *profile,
+            work: &mut *work,
+            search: &mut *state,
+        };
         // The scratch was sized for this transform: it cannot refuse it.
-        if P::inverse(transform, profile, work).is_err() {
+        let Ok(saturated) = P::group(lanes_of_group) else {
             return;
-        }
-        let noise: [f32; L] =
-            core::array::from_fn(|l| profile_noise_dn(refs[l].sample_noise_dn, span as u16));
-        let thresholds = noise.map(|n| plan.decoding.noise_factor * n);
-        P::find_lit(state, profile, &thresholds);
+        };
         for l in 0..lanes {
             let pixel = &mut out[l];
             if saturated & (1 << l) != 0 {

@@ -344,8 +344,9 @@ impl<'t> Decoder<'t> {
     /// bits: each lane runs the same scalar operations in the same order. `scratch` needs
     /// [`Decoder::scratch_len_lanes`] floats.
     ///
-    /// Inlined, so that a caller compiled for wider vectors (`#[target_feature]`) gets the
-    /// whole lane loop in them.
+    /// Inlined, so that a caller compiled for wider vectors (`#[target_feature]`) gets its
+    /// row loop in them; the lane loops of a group (loads, transform, lit columns) are one
+    /// function of this crate per lane count, compiled for the build's own instructions.
     #[inline(always)]
     pub fn decode_row_lanes<const L: usize, const K: usize>(
         &self,

@@ -159,6 +159,8 @@ impl Search {
 /// `column_noise_dn`, written to `out`; `search` holds the lit columns of the profiles
 /// ([`Search::find_lit`] with this lane's threshold, `noise_factor × column_noise_dn`).
 /// `background` holds [`scratch_len`] floats.
+/// Not inlined: this crate's copies serve its dependants (`decoder::cosine`'s `SHARED`).
+#[inline(never)]
 pub(crate) fn find_lights<const L: usize>(
     plan: &ScanPlan,
     profile: &[Lanes<L>],
