@@ -82,7 +82,7 @@ ELF="$TARGET_DIR/$TARGET/$dir/fsm-firmware"
 [ -f "$ELF" ] || { echo "build-arm: $ELF not produced" >&2; exit 1; }
 # Cargo leaves an up-to-date ELF untouched even when a source it ignores for this target (e.g.
 # a host-only dependency in Cargo.toml) is newer; the ELF is now current with every source,
-# which is what tests/qemu_crosscheck.rs checks by modification time.
+# which is what tests/suite/qemu_crosscheck.rs checks by modification time.
 touch "$ELF"
 
 # Section sizes, `size`-style (Berkeley: text = allocated read-only incl. .rodata/.ARM.exidx,

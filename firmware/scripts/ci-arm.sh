@@ -417,14 +417,14 @@ done
 #    FW_QEMU_TEST_RAN=1 (set by .ci/run, whose `FW_REQUIRE_QEMU=1 cargo test --workspace` ran
 #    this test on the same ELF just before) says so instead of running its QEMU sessions again.
 if [ "${FW_QEMU_TEST_RAN:-0}" = 1 ]; then
-    echo "skip - cargo test --test qemu_crosscheck (FW_QEMU_TEST_RAN=1: run by the workspace tests with FW_REQUIRE_QEMU=1)"
+    echo "skip - cargo test --test suite qemu_crosscheck:: (FW_QEMU_TEST_RAN=1: run by the workspace tests with FW_REQUIRE_QEMU=1)"
 elif FW_ELF="$BUILT_ELF" FW_REQUIRE_QEMU=1 "$HOST_CARGO" test -q --manifest-path "$FW_DIR/../Cargo.toml" --workspace \
-    --test qemu_crosscheck -- --nocapture >rusttest.txt 2>&1 && ! grep -q '^SKIP' rusttest.txt; then
+    --test suite qemu_crosscheck:: -- --nocapture >rusttest.txt 2>&1 && ! grep -q '^SKIP' rusttest.txt; then
     grep -E '^(ok|identical)' rusttest.txt || true
-    ok "cargo test -p fsm-firmware --test qemu_crosscheck"
+    ok "cargo test -p fsm-firmware --test suite qemu_crosscheck::"
 else
     cat rusttest.txt
-    bad "cargo test -p fsm-firmware --test qemu_crosscheck"
+    bad "cargo test -p fsm-firmware --test suite qemu_crosscheck::"
 fi
 
 # 7. defmt frames over semihosting, decoded on the host.
