@@ -251,14 +251,18 @@ pub fn slice_width(width: usize, frames: usize, samples: usize) -> Option<usize>
 }
 
 /// Unpacks pixels `x0..x0 + n` of a row of `width` pixels into `out` (`M·n` samples,
-/// sample-major: `out[i·n + x]`).
-fn unpack_slice(record: &RowRecord<'_>, width: usize, x0: usize, n: usize, out: &mut [u16]) {
+/// sample-major: `out[i·n + x]`), a frame's range at a time.
+fn unpack_slice(
+    record: &RowRecord<'_>,
+    width: usize,
+    x0: usize,
+    n: usize,
+    out: &mut [u16],
+) -> Result<(), WireError> {
     for (i, frame) in out.chunks_exact_mut(n).enumerate() {
-        let first = i * width + x0;
-        for (x, sample) in frame.iter_mut().enumerate() {
-            *sample = record.sample(first + x);
-        }
+        record.copy_range_to(i * width + x0, frame)?;
     }
+    Ok(())
 }
 
 /// Decodes one row-dump record and writes its candidate record into `out`; returns the row
@@ -291,7 +295,9 @@ pub fn decode_row<P: Probe>(
     while x0 < width {
         let n = slice.min(width - x0);
         let samples = &mut buffers.samples[..n * frames];
-        unpack_slice(&record, width, x0, n, samples);
+        // A checked record holds every frame of the row.
+        unpack_slice(&record, width, x0, n, samples)
+            .map_err(|error| RowFailure::Output { row, error })?;
         let frames = Row {
             frames: samples,
             width: n,

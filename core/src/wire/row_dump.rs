@@ -238,7 +238,23 @@ impl RowRecord<'_> {
                 got: out.len(),
             });
         }
-        for (o, b) in out.iter_mut().zip(self.samples.chunks_exact(2)) {
+        self.copy_range_to(0, out)
+    }
+
+    /// Copies the samples `first..first + out.len()` into `out` (one frame's pixels of a
+    /// row slice: one range check, not one per sample as [`RowRecord::sample`]); a range
+    /// past the record is [`WireError::Truncated`], in bytes.
+    pub fn copy_range_to(&self, first: usize, out: &mut [u16]) -> Result<(), WireError> {
+        let end = first.saturating_add(out.len()).saturating_mul(2);
+        let bytes = self
+            .samples
+            .get(first.saturating_mul(2)..end)
+            .ok_or(WireError::Truncated {
+                what: WHAT,
+                needed: end,
+                got: self.samples.len(),
+            })?;
+        for (o, b) in out.iter_mut().zip(bytes.chunks_exact(2)) {
             *o = u16::from_le_bytes([b[0], b[1]]);
         }
         Ok(())

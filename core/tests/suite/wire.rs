@@ -204,6 +204,19 @@ fn row_dumps_round_trip_and_name_their_damage() {
         let mut samples = vec![0u16; record.len()];
         record.copy_to(&mut samples).unwrap();
         assert_eq!(&samples, expected);
+        // A range of samples (a frame's pixels 1..3 of a row slice), and one past the end.
+        let mut two = [0u16; 2];
+        record.copy_range_to(5 * 3 + 1, &mut two).unwrap();
+        assert_eq!(two, [record.sample(5 * 3 + 1), record.sample(5 * 3 + 2)]);
+        assert_eq!(&two[..], &expected[16..18]);
+        let past = record
+            .copy_range_to(record.len() - 1, &mut two)
+            .unwrap_err();
+        assert!(
+            matches!(past, WireError::Truncated { needed, got, .. }
+                if needed == 2 * record.len() + 2 && got == 2 * record.len()),
+            "{past}"
+        );
     }
 
     // The wrong plan.
