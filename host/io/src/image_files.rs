@@ -549,7 +549,7 @@ mod tests {
             read_tiff_f32_bytes(&float_tiff(3, 2, 1, &data)).unwrap(),
             (3, 2, data)
         );
-        // Found by host/fuzz (tiff_f32): 11 samples per pixel decoded to 66 samples for a 3x2
+        // Found by tests/fuzz (tiff_f32): 11 samples per pixel decoded to 66 samples for a 3x2
         // map, which callers index as 6.
         let e = read_tiff_f32_bytes(&float_tiff(3, 2, 11, &[0.0; 66])).unwrap_err();
         assert!(e.0.contains("single-channel 32-bit float"), "{e}");
@@ -557,7 +557,7 @@ mod tests {
 
     #[test]
     fn a_header_claiming_a_huge_image_is_refused_before_allocating() {
-        // Found by host/fuzz (image): a 81-byte PNG claiming 3 x 1006632962 pixels made
+        // Found by tests/fuzz (image): a 81-byte PNG claiming 3 x 1006632962 pixels made
         // read_image reserve 6 GB for its samples.
         let bytes = png_claiming(3, 1_006_632_962);
         let e = read_image_bytes(&bytes, ImageFormat::Png).unwrap_err();

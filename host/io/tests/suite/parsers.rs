@@ -117,7 +117,8 @@ proptest! {
 /// parsed floats with `float_roundtrip`.
 #[test]
 fn a_grey_level_manifest_reads_back_the_fractions_it_was_written_with() {
-    let text = include_str!("../../../fuzz/seeds/grey_levels/tiny-fraction-round-trip.json");
+    let text =
+        include_str!("../../../../tests/fuzz/seeds/grey_levels/tiny-fraction-round-trip.json");
     let manifest = GreyLevelManifest::parse(text).unwrap();
     let json = serde_json::to_string_pretty(&manifest).unwrap();
     let back = GreyLevelManifest::parse(&json).unwrap();

@@ -1,5 +1,5 @@
 //! The host's row-dump reader (`DumpReader`: record order, duplicate rows, truncation and
-//! trailing bytes over the core's record format, which core/fuzz covers on its own): raw
+//! trailing bytes over the core's record format, which the row_dump target covers on its own): raw
 //! bytes, and a small header built from the first bytes followed by records whose CRCs are
 //! made valid, so the fuzzer reaches the checks behind them. Errors name the source; a dump
 //! that reads has every row once and writes back to the same bytes.

@@ -1,5 +1,5 @@
 //! The host's candidate-file reader (`CandidateReader`: row order, truncation, record lengths
-//! and trailing bytes over the core's record format, which core/fuzz covers on its own): raw
+//! and trailing bytes over the core's record format, which the candidate_rows target covers on its own): raw
 //! bytes, and a small header built from the first bytes followed by records whose CRCs are
 //! made valid. Errors name the source; a file that reads has rows 0.. in order and writes back
 //! to bytes that read to the same candidates.

@@ -1,20 +1,20 @@
 #!/usr/bin/env bash
-# Runs every fuzz target of a cargo-fuzz crate for the given number of seconds each (default 20):
-# fsm-core's (this folder) unless another crate's folder is given (host/fuzz/run.sh passes its
-# own). New inputs go to corpus/<target>/; checked-in seeds/<target>/ start the run where the
-# crate has them. Uses the nightly toolchain when present, otherwise the stable one with
-# RUSTC_BOOTSTRAP (the fuzzing flags are unstable), and installs cargo-fuzz if it is missing. The
-# seed is fixed (FUZZ_SEED, default 1) so a CI run can be replayed; set it to 0 for libFuzzer's
-# own random seed. Fails on the first target that does not build, exits non-zero, leaves a
-# crash in artifacts/ or ran no input, and when the crate lists no target at all: a fuzz step
-# that fuzzed nothing is a failure, not a pass. Runs FUZZ_JOBS targets at a time (default: one
-# per core). Ends with one line per target: runs, corpus size, crashes.
-# Usage: core/fuzz/run.sh [seconds] [fuzz-crate-dir]
+# Runs every fuzz target (this folder's cargo-fuzz crate: the core's wire formats and decoder,
+# the host's file parsers) for the given number of seconds each (default 20). New inputs go to
+# corpus/<target>/; checked-in seeds/<target>/ start the run where the target has them. Uses
+# the nightly toolchain when present, otherwise the stable one with RUSTC_BOOTSTRAP (the fuzzing
+# flags are unstable), and installs cargo-fuzz if it is missing. The seed is fixed (FUZZ_SEED,
+# default 1) so a CI run can be replayed; set it to 0 for libFuzzer's own random seed. Fails on
+# the first target that does not build, exits non-zero, leaves a crash in artifacts/ or ran no
+# input, and when the crate lists no target at all: a fuzz step that fuzzed nothing is a
+# failure, not a pass. Runs FUZZ_JOBS targets at a time (default: one per core). Ends with one
+# line per target: runs, corpus size, crashes.
+# Usage: tests/fuzz/run.sh [seconds]
 set -euo pipefail
 seconds=${1:-20}
 # libFuzzer takes -max_total_time=0 as "no limit".
 [[ "$seconds" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz: seconds must be a positive integer, not '$seconds'" >&2; exit 2; }
-cd "${2:-$(dirname "$0")}"
+cd "$(dirname "$0")"
 where=$(basename "$(dirname "$PWD")")/$(basename "$PWD")
 command -v cargo-fuzz >/dev/null || cargo install --locked cargo-fuzz@0.13.2
 if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
@@ -23,9 +23,8 @@ else
     export RUSTC_BOOTSTRAP=1
     fuzz=(cargo fuzz)
 fi
-# Every command names the fuzz crate's folder: cargo-fuzz otherwise takes `fuzz/` beside the
-# nearest parent manifest, which for host/fuzz (host/ holds crates, no manifest of its own) is
-# the workspace root's, where no fuzz crate is.
+# Every command names the fuzz crate's folder rather than rely on cargo-fuzz's search (`fuzz/`
+# beside the nearest parent manifest).
 dir=(--fuzz-dir "$PWD")
 # Built first, so that a target that does not compile fails here rather than in a filtered log.
 "${fuzz[@]}" build "${dir[@]}"
