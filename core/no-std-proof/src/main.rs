@@ -22,6 +22,26 @@ fn panic(_: &PanicInfo) -> ! {
 #[no_mangle]
 pub extern "C" fn rust_eh_personality() {}
 
+/// The decoder's copies and fills call the C library's `memcpy`, `memmove` and `memset`, which a
+/// bare binary does not link (the firmware takes them from `compiler_builtins`' `mem` feature).
+/// The binary is only linked, never run, so stubs complete the link, as above.
+#[no_mangle]
+pub extern "C" fn memcpy(dest: *mut u8, _src: *const u8, _n: usize) -> *mut u8 {
+    dest
+}
+
+/// See [`memcpy`].
+#[no_mangle]
+pub extern "C" fn memmove(dest: *mut u8, _src: *const u8, _n: usize) -> *mut u8 {
+    dest
+}
+
+/// See [`memcpy`].
+#[no_mangle]
+pub extern "C" fn memset(dest: *mut u8, _c: i32, _n: usize) -> *mut u8 {
+    dest
+}
+
 /// Touches the decoder so it is compiled into this binary, not just type-checked.
 #[no_mangle]
 pub extern "C" fn fsm_core_no_std_proof(tables: &mut [f32; 4096]) -> usize {
