@@ -3,10 +3,11 @@
 //! decode of the same dump byte for byte (BFSM, and EFSM with two groups; 32 rows of the mirror
 //! scene, with interreflections). Then the protocol side: a recorded host session with one of
 //! each kind of bad input, served by the device loop on the Cortex-A9, must be answered as
-//! expected (an error for each bad input) and carry the same candidates. Then the real link:
+//! expected (an error for each bad input) and carry the same candidates. Then the real links:
 //! the firmware serves the protocol on its UART (its own driver, QEMU's UART model, a TCP
-//! socket on the host) and the host's client scans through it; the firmware must survive
-//! garbage and a host cut off mid-frame.
+//! socket on the host) and on its Ethernet (its GEM driver and smoltcp's TCP, QEMU's GEM model
+//! on user networking, a forwarded port of 127.0.0.1), and the host's client scans through
+//! each; the firmware must survive garbage and a host cut off mid-frame.
 //!
 //! Runs when `qemu-system-arm` is on PATH (or `$QEMU`) and the ARM ELF
 //! (`$FW_ELF`, default `firmware/target/armv7a-none-eabihf/release/fsm-firmware`, built by
@@ -208,20 +209,55 @@ fn firmware_under_qemu_matches_the_host_decode() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The firmware serving the protocol on UART1 under QEMU (`run-qemu.sh --serve-uart`), the
-/// UART's bytes on a TCP port of 127.0.0.1. QEMU is killed when this is dropped, a failed
-/// assertion included.
-struct UartCamera {
+/// The camera's link to the host under QEMU.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Wire {
+    /// UART1 (`run-qemu.sh --serve-uart`): the UART's bytes on a TCP port of 127.0.0.1.
+    Uart,
+    /// GEM0 and TCP/IP at 10.0.2.15:7070 (`run-qemu.sh --serve-net`): QEMU's user networking
+    /// forwards a port of 127.0.0.1 to it.
+    Ethernet,
+}
+
+impl Wire {
+    fn option(self) -> &'static str {
+        match self {
+            Wire::Uart => "--serve-uart",
+            Wire::Ethernet => "--serve-net",
+        }
+    }
+
+    /// The console line the firmware prints once it serves on this link.
+    fn ready_line(self) -> &'static str {
+        match self {
+            Wire::Uart => "SERVE UART1 ",
+            Wire::Ethernet => "SERVE NET 10.0.2.15:7070 ",
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Wire::Uart => "the UART",
+            Wire::Ethernet => "Ethernet",
+        }
+    }
+}
+
+/// The firmware serving the protocol on `wire` under QEMU, reached on a TCP port of
+/// 127.0.0.1. QEMU is killed when this is dropped, a failed assertion included.
+struct QemuCamera {
     qemu: Child,
     port: u16,
+    wire: Wire,
     /// QEMU's console lines after the ready line (a panic report, say).
     console: mpsc::Receiver<String>,
 }
 
-impl UartCamera {
-    /// Starts QEMU and waits until the firmware says its UART receives: bytes sent before
-    /// are lost (QEMU's model drops what arrives while RX is disabled, as the silicon does).
-    fn start(elf: &Path) -> UartCamera {
+impl QemuCamera {
+    /// Starts QEMU and waits until the firmware says it serves: bytes sent before are lost
+    /// (QEMU's UART model drops what arrives while RX is disabled, as the silicon does; TCP
+    /// has no listener yet).
+    fn start(elf: &Path, wire: Wire) -> QemuCamera {
         // A free port (another process could take it before QEMU does: QEMU then fails and
         // says so below).
         let port = TcpListener::bind("127.0.0.1:0")
@@ -230,7 +266,7 @@ impl UartCamera {
             .port();
         let mut qemu = Command::new("bash")
             .arg(firmware_dir().join("scripts/run-qemu.sh"))
-            .args(["--serve-uart", &port.to_string()])
+            .args([wire.option(), &port.to_string()])
             .arg(elf)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -247,9 +283,10 @@ impl UartCamera {
                 }
             }
         });
-        let mut camera = UartCamera {
+        let mut camera = QemuCamera {
             qemu,
             port,
+            wire,
             console,
         };
         let deadline = Instant::now() + Duration::from_secs(30);
@@ -257,7 +294,7 @@ impl UartCamera {
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match camera.console.recv_timeout(left) {
-                Ok(line) if line.starts_with("SERVE UART1 ") => return camera,
+                Ok(line) if line.starts_with(wire.ready_line()) => return camera,
                 Ok(line) => {
                     seen.push_str(&line);
                     seen.push('\n');
@@ -268,7 +305,10 @@ impl UartCamera {
                     if let Some(mut err) = camera.qemu.stderr.take() {
                         let _ = err.read_to_string(&mut stderr);
                     }
-                    panic!("the firmware did not report its UART ready ({e:?}):\n{seen}{stderr}");
+                    panic!(
+                        "the firmware did not report {} ready ({e:?}):\n{seen}{stderr}",
+                        wire.name()
+                    );
                 }
             }
         }
@@ -295,7 +335,7 @@ impl UartCamera {
     }
 }
 
-impl Drop for UartCamera {
+impl Drop for QemuCamera {
     fn drop(&mut self) {
         // run-qemu.sh exec'd QEMU (no --timeout): the child is QEMU itself.
         let _ = self.qemu.kill();
@@ -307,9 +347,9 @@ impl Drop for UartCamera {
 /// host's decode, byte for byte. Returns the seconds the scan took (plan upload included).
 /// Measured here: 27 to 54 kB/s up through QEMU's UART model (its 64-byte FIFO refilled by
 /// QEMU's main loop), i.e. 4 to 5 EFSM or 1 to 1.5 BFSM rows of 24 pixels a second; a board
-/// at 115,200 baud moves 11.5 kB/s.
-fn uart_scan(
-    camera: &UartCamera,
+/// at 115,200 baud moves 11.5 kB/s. Ethernet's figures are QEMU's too, not a board's.
+fn scan(
+    camera: &QemuCamera,
     client: &mut Client<Box<dyn fsm_protocol::transport::Link>>,
     name: &str,
     plan: &ScanPlan,
@@ -327,18 +367,28 @@ fn uart_scan(
             RowOutput::Candidates,
             &mut received,
         )
-        .unwrap_or_else(|e| panic!("{name}: scan over the UART: {e}{}", camera.console_tail()));
+        .unwrap_or_else(|e| {
+            panic!(
+                "{name}: scan over {}: {e}{}",
+                camera.wire.name(),
+                camera.console_tail()
+            )
+        });
     let secs = t.elapsed().as_secs_f64();
     if let Err(d) = reference::compare(&host, &received) {
-        panic!("{name}: firmware over the UART and host candidates differ: {d}");
+        panic!(
+            "{name}: firmware over {} and host candidates differ: {d}",
+            camera.wire.name()
+        );
     }
     assert_eq!(received, host);
     assert_eq!(summary.rows, rows);
     let census = reference::census(&host).unwrap();
     assert!(census.by_count[2] + census.by_count[3] > 0, "{census}");
     say(&format!(
-        "ok   - {name} over the UART: {rows} rows x {WIDTH} pixels bit-identical to the host decode; \
-         {:.1} s, {:.1} rows/s, {:.0} bytes/s up (dump {} bytes), {} bytes of candidates down (QEMU's UART, not a board's)",
+        "ok   - {name} over {}: {rows} rows x {WIDTH} pixels bit-identical to the host decode; \
+         {:.2} s, {:.1} rows/s, {:.0} bytes/s up (dump {} bytes), {} bytes of candidates down (QEMU's, not a board's)",
+        camera.wire.name(),
         secs,
         rows as f64 / secs,
         dump.len() as f64 / secs,
@@ -355,7 +405,7 @@ fn host_client_scans_through_the_firmware_uart_under_qemu() {
     };
     let _one = QEMU_LOCK.lock().unwrap_or_else(|e| e.into_inner());
     let started = Instant::now();
-    let camera = UartCamera::start(&elf);
+    let camera = QemuCamera::start(&elf, Wire::Uart);
     say(&format!(
         "ok   - firmware serving on UART1 at {} after {:.1} s",
         camera.url(),
@@ -369,9 +419,9 @@ fn host_client_scans_through_the_firmware_uart_under_qemu() {
     assert_eq!(info.plan_fingerprint, None);
 
     let efsm = ScanPlan::paper_efsm(GroupCount::Two);
-    uart_scan(&camera, &mut client, "EFSM two groups", &efsm, ROWS);
+    scan(&camera, &mut client, "EFSM two groups", &efsm, ROWS);
     // BFSM's rows are five times longer (770 frames): 8 rows keep the test under a minute.
-    uart_scan(&camera, &mut client, "BFSM", &ScanPlan::paper_bfsm(), 8);
+    scan(&camera, &mut client, "BFSM", &ScanPlan::paper_bfsm(), 8);
     // The EFSM plan loaded last, for the checks below.
     client.upload_plan(&efsm).unwrap();
 
@@ -427,7 +477,7 @@ fn host_client_scans_through_the_firmware_uart_under_qemu() {
         Some(efsm.fingerprint()),
         "the plan stays loaded from one connection to the next"
     );
-    uart_scan(
+    scan(
         &camera,
         &mut client,
         "EFSM two groups, after garbage and a half frame",
@@ -435,6 +485,79 @@ fn host_client_scans_through_the_firmware_uart_under_qemu() {
         8,
     );
     say("ok   - garbage refused, a half frame dropped after the frame time-out, the next host served");
+    drop(client);
+    let console = camera.console_tail();
+    assert!(
+        console.is_empty(),
+        "the firmware printed while serving:{console}"
+    );
+}
+
+#[test]
+fn host_client_scans_through_the_firmware_ethernet_under_qemu() {
+    let Some(elf) = setup_or_skip("host_client_scans_through_the_firmware_ethernet_under_qemu")
+    else {
+        return;
+    };
+    let _one = QEMU_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let started = Instant::now();
+    let camera = QemuCamera::start(&elf, Wire::Ethernet);
+    say(&format!(
+        "ok   - firmware serving on Ethernet (GEM0, smoltcp) at {} after {:.1} s",
+        camera.url(),
+        started.elapsed().as_secs_f64()
+    ));
+
+    let mut client = camera.connect();
+    let info = client.hello().unwrap();
+    assert_eq!(info.max_width as usize, limits::MAX_WIDTH);
+    assert_eq!(info.candidate_capacity as usize, limits::CANDIDATE_CAPACITY);
+    assert_eq!(info.plan_fingerprint, None);
+
+    let efsm = ScanPlan::paper_efsm(GroupCount::Two);
+    scan(&camera, &mut client, "EFSM two groups", &efsm, ROWS);
+    scan(&camera, &mut client, "BFSM", &ScanPlan::paper_bfsm(), ROWS);
+    client.upload_plan(&efsm).unwrap();
+
+    // Garbage between delimiters: one frame, refused; the camera keeps serving.
+    client
+        .send_raw(RequestKind::Hello, &[0, 0xde, 0xad, 0xbe, 0xef, 0x17, 0])
+        .unwrap();
+    match client.receive(RequestKind::Hello).unwrap() {
+        Response::Error(DeviceError::Frame(_)) => {}
+        other => panic!("garbage answered with {other:?}"),
+    }
+    assert_eq!(
+        client.hello().unwrap().plan_fingerprint,
+        Some(efsm.fingerprint())
+    );
+
+    // A host that leaves inside a frame: half a plan upload, then the connection closes.
+    // Unlike a UART, TCP tells the firmware: the session ends with the half frame, and the
+    // next connection is answered as if nothing had happened, with the plan still loaded.
+    let bytes = efsm.to_bytes();
+    let upload = frame::encode_vec(&Request::UploadPlan {
+        plan: &bytes,
+        fingerprint: efsm.fingerprint(),
+    })
+    .unwrap();
+    client
+        .send_raw(RequestKind::UploadPlan, &upload[..upload.len() / 2])
+        .unwrap();
+    drop(client);
+    let mut client = camera.connect();
+    let info = client
+        .hello()
+        .unwrap_or_else(|e| panic!("hello after a half frame: {e}{}", camera.console_tail()));
+    assert_eq!(info.plan_fingerprint, Some(efsm.fingerprint()));
+    scan(
+        &camera,
+        &mut client,
+        "EFSM two groups, after garbage and a half frame",
+        &efsm,
+        8,
+    );
+    say("ok   - garbage refused, a connection closed mid-frame, the next host served");
     drop(client);
     let console = camera.console_tail();
     assert!(
