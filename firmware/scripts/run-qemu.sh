@@ -44,6 +44,9 @@
 #   --word ADDR=VAL  write the 32-bit word VAL at ADDR before the CPU starts (what U-Boot's
 #                    `mw.l ADDR VAL` does); repeatable
 #   --reboot         with --board: let a reset of the SoC restart the image
+#   --defmt FILE     with --board: UART0 (QEMU's first -serial), where the firmware writes its
+#                    defmt frames when no semihosting host answers, into FILE (decode it with
+#                    `defmt-print -e <elf> < FILE`)
 #
 # The input file (at most 64 MiB) is placed raw at 0x04000000 with QEMU's generic loader and
 # its length in the descriptor {"FSMI", length} at 0x03FFFFF0 (src/layout.rs).
@@ -71,6 +74,7 @@ BOARD=0
 GUEST=""
 LOAD_ADDR=0x00100000
 REBOOT=0
+DEFMT_FILE=""
 WORDS=()
 
 usage() { sed -n '2,59p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
@@ -89,6 +93,7 @@ while [ $# -gt 0 ]; do
         --load-address) [ $# -ge 2 ] || usage; LOAD_ADDR="$2"; shift ;;
         --word) [ $# -ge 2 ] || usage; WORDS+=("$2"); shift ;;
         --reboot) REBOOT=1 ;;
+        --defmt) [ $# -ge 2 ] || usage; DEFMT_FILE="$2"; shift ;;
         --trace) [ $# -ge 2 ] || usage; TRACE="$2"; shift ;;
         -h|--help) usage ;;
         --) shift; break ;;
@@ -152,11 +157,16 @@ if [ "$BOARD" = 1 ]; then
         case "$NET_PORT" in ''|*[!0-9]*) echo "run-qemu: --serve-net PORT must be a number" >&2; exit 2 ;; esac
         fwd=",hostfwd=tcp:127.0.0.1:$NET_PORT-${guest%:*}:${guest##*:}"
     fi
-    # UART1 (the second -serial) is the console: stdout. GEM0 is always there, as on a board.
-    serial=(-serial null -serial stdio)
+    # UART1 (the second -serial) is the console: stdout; UART0 (the first) the defmt frames.
+    # GEM0 is always there, as on a board.
+    if [ -n "$DEFMT_FILE" ]; then
+        serial=(-serial "file:$DEFMT_FILE" -serial stdio)
+    else
+        serial=(-serial null -serial stdio)
+    fi
     nic=(-nic "user,model=cadence_gem,restrict=on$fwd")
-elif [ -n "$GUEST" ] || [ "$REBOOT" = 1 ]; then
-    echo "run-qemu: --guest and --reboot go with --board" >&2; exit 2
+elif [ -n "$GUEST" ] || [ "$REBOOT" = 1 ] || [ -n "$DEFMT_FILE" ]; then
+    echo "run-qemu: --guest, --reboot and --defmt go with --board" >&2; exit 2
 elif [ -n "$NET_PORT" ]; then
     case "$NET_PORT" in ''|*[!0-9]*) echo "run-qemu: --serve-net PORT must be a number" >&2; exit 2 ;; esac
     [ "$NET_PORT" -ge 1 ] && [ "$NET_PORT" -le 65535 ] || { echo "run-qemu: port $NET_PORT is not 1..65535" >&2; exit 2; }

@@ -95,12 +95,25 @@ mod fw {
 
     /// Serves the protocol over TCP for ever: one connection at a time, each a session; the
     /// plan stays loaded from one to the next. A closed or reset connection, a time-out or
-    /// garbage ends a session, never the server. No semihosting call (see `serve_uart`).
+    /// garbage ends a session, never the server. No semihosting call (see `serve_uart`) but
+    /// the defmt log's, which a board without a debugger writes on UART0 (`arm::logger`).
     fn serve_net(mut net: Net, storage: &'static mut Storage) -> ! {
         let mut device = Device::new(storage.memory());
         loop {
             net.accept();
-            let _ = device.serve(&mut net);
+            let served = device.serve(&mut net);
+            #[cfg(feature = "defmt")]
+            match served {
+                Ok(r) => defmt::info!(
+                    "session: {=u32} requests, {=u32} rows, {=u32} refused",
+                    r.requests,
+                    r.rows,
+                    r.errors
+                ),
+                Err(_) => defmt::info!("session ended by the connection"),
+            }
+            #[cfg(not(feature = "defmt"))]
+            let _ = served;
             net.disconnect();
         }
     }
@@ -147,6 +160,15 @@ mod fw {
             m[4],
             m[5],
             LinkText(phy, link)
+        );
+        #[cfg(feature = "defmt")]
+        defmt::info!(
+            "serving the host protocol over TCP at {=u8}.{=u8}.{=u8}.{=u8}:{=u16}",
+            a,
+            b,
+            c,
+            d,
+            served.port
         );
         serve_net(net, storage)
     }

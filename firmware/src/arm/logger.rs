@@ -1,8 +1,16 @@
-//! defmt global logger: rzCOBS-encoded defmt frames written over semihosting to a host file.
+//! defmt global logger: rzCOBS-encoded defmt frames, written over semihosting to a host file
+//! when a semihosting host answers (QEMU's `-semihosting`, a debugger), else on UART0.
 //!
-//! The file (default `defmt.bin`, in QEMU's working directory; override at build time with
-//! the environment variable `FSM_DEFMT_FILE`) is created on the first log call. Decode it on
-//! the host with the ELF that produced it:
+//! - Semihosting: the file (default `defmt.bin`, in QEMU's working directory; override at
+//!   build time with the environment variable `FSM_DEFMT_FILE`) is created on the first log
+//!   call.
+//! - No host (a board booted on its own, `run-qemu.sh --board`): UART0 at 115,200 baud 8N1,
+//!   the frames as bytes on the line. UART1 is the board's text console and GEM0 its link to
+//!   the host, so UART0 carries nothing else; on the ZedBoard it is routed to pins by the
+//!   board's design (its USB-UART is UART1). `run-qemu.sh --board --defmt FILE` writes QEMU's
+//!   UART0 to FILE.
+//!
+//! Decode either on the host with the ELF that produced it:
 //!
 //! ```text
 //! defmt-print -e target-arm/armv7a-none-eabihf/release/fsm-firmware < defmt.bin
@@ -17,7 +25,11 @@ use core::arch::asm;
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use super::semihosting::{File, Mode};
+use super::semihosting::{self, File, Mode};
+use super::uart::{self, Port};
+
+/// Where the frames go when no semihosting host answers.
+pub const UART: Port = Port::Uart0;
 
 const PATH: &str = match option_env!("FSM_DEFMT_FILE") {
     Some(p) => p,
@@ -28,7 +40,7 @@ const PATH: &str = match option_env!("FSM_DEFMT_FILE") {
 // `run-qemu.sh --icount` (shift 4) that is 0.625 instructions per tick).
 defmt::timestamp!("{=u64}", super::cpu::global_timer_ticks());
 
-/// Where encoded bytes go: a buffer flushed to the host file.
+/// Where encoded bytes go: a buffer flushed to the host file, or to [`UART`].
 struct Sink {
     file: Option<File>,
     failed: bool,
@@ -56,6 +68,11 @@ static SINK: Cell<Sink> = Cell(UnsafeCell::new(Sink {
 impl Sink {
     fn flush(&mut self) {
         if self.len == 0 {
+            return;
+        }
+        if !semihosting::host_present() {
+            uart::console_write(UART, &self.buf[..self.len]);
+            self.len = 0;
             return;
         }
         if self.file.is_none() && !self.failed {
