@@ -258,6 +258,7 @@ impl QemuCamera {
     /// (QEMU's UART model drops what arrives while RX is disabled, as the silicon does; TCP
     /// has no listener yet).
     fn start(elf: &Path, wire: Wire) -> QemuCamera {
+        let started = Instant::now();
         // A free port (another process could take it before QEMU does: QEMU then fails and
         // says so below).
         let port = TcpListener::bind("127.0.0.1:0")
@@ -294,7 +295,15 @@ impl QemuCamera {
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match camera.console.recv_timeout(left) {
-                Ok(line) if line.starts_with(wire.ready_line()) => return camera,
+                Ok(line) if line.starts_with(wire.ready_line()) => {
+                    say(&format!(
+                        "ok   - firmware serving on {} at {} after {:.1} s",
+                        wire.name(),
+                        camera.url(),
+                        started.elapsed().as_secs_f64()
+                    ));
+                    return camera;
+                }
                 Ok(line) => {
                     seen.push_str(&line);
                     seen.push('\n');
@@ -398,20 +407,14 @@ fn scan(
     secs
 }
 
-#[test]
-fn host_client_scans_through_the_firmware_uart_under_qemu() {
-    let Some(elf) = setup_or_skip("host_client_scans_through_the_firmware_uart_under_qemu") else {
-        return;
-    };
-    let _one = QEMU_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let started = Instant::now();
-    let camera = QemuCamera::start(&elf, Wire::Uart);
-    say(&format!(
-        "ok   - firmware serving on UART1 at {} after {:.1} s",
-        camera.url(),
-        started.elapsed().as_secs_f64()
-    ));
-
+/// What both links must do first: a fresh camera's info; the mirror scene scanned with the
+/// two-group EFSM plan (`ROWS` rows) and BFSM (`bfsm_rows`), byte for byte; garbage between
+/// delimiters refused as one bad frame, the camera still serving. Returns the client, with the
+/// EFSM plan loaded, and that plan.
+fn scans_and_garbage(
+    camera: &QemuCamera,
+    bfsm_rows: u32,
+) -> (Client<Box<dyn fsm_protocol::transport::Link>>, ScanPlan) {
     let mut client = camera.connect();
     let info = client.hello().unwrap();
     assert_eq!(info.max_width as usize, limits::MAX_WIDTH);
@@ -419,13 +422,16 @@ fn host_client_scans_through_the_firmware_uart_under_qemu() {
     assert_eq!(info.plan_fingerprint, None);
 
     let efsm = ScanPlan::paper_efsm(GroupCount::Two);
-    scan(&camera, &mut client, "EFSM two groups", &efsm, ROWS);
-    // BFSM's rows are five times longer (770 frames): 8 rows keep the test under a minute.
-    scan(&camera, &mut client, "BFSM", &ScanPlan::paper_bfsm(), 8);
-    // The EFSM plan loaded last, for the checks below.
+    scan(camera, &mut client, "EFSM two groups", &efsm, ROWS);
+    scan(
+        camera,
+        &mut client,
+        "BFSM",
+        &ScanPlan::paper_bfsm(),
+        bfsm_rows,
+    );
     client.upload_plan(&efsm).unwrap();
 
-    // Garbage between delimiters: one frame, refused; the camera keeps serving.
     client
         .send_raw(RequestKind::Hello, &[0, 0xde, 0xad, 0xbe, 0xef, 0x17, 0])
         .unwrap();
@@ -437,18 +443,35 @@ fn host_client_scans_through_the_firmware_uart_under_qemu() {
         client.hello().unwrap().plan_fingerprint,
         Some(efsm.fingerprint())
     );
+    (client, efsm)
+}
+
+/// The first half of the frame that uploads `plan`: what a host cut off mid-request sent.
+fn half_plan_upload(plan: &ScanPlan) -> Vec<u8> {
+    let bytes = plan.to_bytes();
+    let upload = frame::encode_vec(&Request::UploadPlan {
+        plan: &bytes,
+        fingerprint: plan.fingerprint(),
+    })
+    .unwrap();
+    upload[..upload.len() / 2].to_vec()
+}
+
+#[test]
+fn host_client_scans_through_the_firmware_uart_under_qemu() {
+    let Some(elf) = setup_or_skip("host_client_scans_through_the_firmware_uart_under_qemu") else {
+        return;
+    };
+    let _one = QEMU_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let camera = QemuCamera::start(&elf, Wire::Uart);
+    // BFSM's rows are five times longer (770 frames): 8 rows keep the test under a minute.
+    let (mut client, efsm) = scans_and_garbage(&camera, 8);
 
     // A host cut off inside a frame: half a plan upload, then the connection closes. The
     // UART cannot see the close. A host that comes at once finds the half frame ended by its
     // request's leading delimiter: a damaged frame, answered with an error before its own.
-    let bytes = efsm.to_bytes();
-    let upload = frame::encode_vec(&Request::UploadPlan {
-        plan: &bytes,
-        fingerprint: efsm.fingerprint(),
-    })
-    .unwrap();
-    let half = &upload[..upload.len() / 2];
-    client.send_raw(RequestKind::UploadPlan, half).unwrap();
+    let half = half_plan_upload(&efsm);
+    client.send_raw(RequestKind::UploadPlan, &half).unwrap();
     drop(client);
     let mut client = camera.connect();
     match client.hello() {
@@ -464,7 +487,7 @@ fn host_client_scans_through_the_firmware_uart_under_qemu() {
     }
     // The frame time-out (2 s of silence inside a frame) ends the session and drops the half
     // frame: a host that comes later is answered as if nothing had happened.
-    client.send_raw(RequestKind::UploadPlan, half).unwrap();
+    client.send_raw(RequestKind::UploadPlan, &half).unwrap();
     drop(client);
     std::thread::sleep(Duration::from_millis(3000));
 
@@ -500,49 +523,14 @@ fn host_client_scans_through_the_firmware_ethernet_under_qemu() {
         return;
     };
     let _one = QEMU_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let started = Instant::now();
     let camera = QemuCamera::start(&elf, Wire::Ethernet);
-    say(&format!(
-        "ok   - firmware serving on Ethernet (GEM0, smoltcp) at {} after {:.1} s",
-        camera.url(),
-        started.elapsed().as_secs_f64()
-    ));
-
-    let mut client = camera.connect();
-    let info = client.hello().unwrap();
-    assert_eq!(info.max_width as usize, limits::MAX_WIDTH);
-    assert_eq!(info.candidate_capacity as usize, limits::CANDIDATE_CAPACITY);
-    assert_eq!(info.plan_fingerprint, None);
-
-    let efsm = ScanPlan::paper_efsm(GroupCount::Two);
-    scan(&camera, &mut client, "EFSM two groups", &efsm, ROWS);
-    scan(&camera, &mut client, "BFSM", &ScanPlan::paper_bfsm(), ROWS);
-    client.upload_plan(&efsm).unwrap();
-
-    // Garbage between delimiters: one frame, refused; the camera keeps serving.
-    client
-        .send_raw(RequestKind::Hello, &[0, 0xde, 0xad, 0xbe, 0xef, 0x17, 0])
-        .unwrap();
-    match client.receive(RequestKind::Hello).unwrap() {
-        Response::Error(DeviceError::Frame(_)) => {}
-        other => panic!("garbage answered with {other:?}"),
-    }
-    assert_eq!(
-        client.hello().unwrap().plan_fingerprint,
-        Some(efsm.fingerprint())
-    );
+    let (mut client, efsm) = scans_and_garbage(&camera, ROWS);
 
     // A host that leaves inside a frame: half a plan upload, then the connection closes.
     // Unlike a UART, TCP tells the firmware: the session ends with the half frame, and the
     // next connection is answered as if nothing had happened, with the plan still loaded.
-    let bytes = efsm.to_bytes();
-    let upload = frame::encode_vec(&Request::UploadPlan {
-        plan: &bytes,
-        fingerprint: efsm.fingerprint(),
-    })
-    .unwrap();
     client
-        .send_raw(RequestKind::UploadPlan, &upload[..upload.len() / 2])
+        .send_raw(RequestKind::UploadPlan, &half_plan_upload(&efsm))
         .unwrap();
     drop(client);
     let mut client = camera.connect();
