@@ -276,6 +276,11 @@ impl Pairs<'_> {
             .any(|c| (c.column - column).abs() <= tol)
     }
 
+    /// Whether `mirror` hides pixel `i`'s chosen point ([`Mirror::hides`]).
+    fn hidden(&self, mirror: &Mirror, i: usize) -> bool {
+        self.points[i].is_some_and(|p| mirror.hides(p, self.projector, self.params.behind_mm))
+    }
+
     /// Calls `f(bisector)` for every pair of pixel `q` (of the voting grid).
     fn of_pixel(&self, q: usize, mut f: impl FnMut(Bisector)) {
         let tol = self.params.column_tolerance;
@@ -432,10 +437,7 @@ pub fn mirror_images(
                 if window == 1 && stride > 1 {
                     // The share test on the grid first, where it is cheap.
                     let mirror = Mirror::new(plane.0, plane.1, &verified);
-                    let hidden = pairs.grid(stride).filter(|&i| {
-                        pairs.points[i]
-                            .is_some_and(|p| mirror.hides(p, pairs.projector, params.behind_mm))
-                    });
+                    let hidden = pairs.grid(stride).filter(|&i| pairs.hidden(&mirror, i));
                     if !verifier.is_mirror(verified.len(), hidden) {
                         return None;
                     }
@@ -446,10 +448,7 @@ pub fn mirror_images(
         .collect();
     found.sort_by(|a, b| b.0.len().cmp(&a.0.len()).then(a.2.total_cmp(&b.2)));
     let hidden_by = |mirror: &Mirror| -> Vec<bool> {
-        points
-            .iter()
-            .map(|p| p.is_some_and(|p| mirror.hides(p, pairs.projector, params.behind_mm)))
-            .collect()
+        (0..points.len()).map(|i| pairs.hidden(mirror, i)).collect()
     };
     // The mirrors found, each with the points it hides.
     let mut accepted: Vec<(Mirror, Vec<bool>)> = Vec::new();
