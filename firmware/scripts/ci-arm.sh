@@ -34,6 +34,19 @@ pass=0
 fail=0
 ok() { pass=$((pass + 1)); echo "ok   - $*"; }
 bad() { fail=$((fail + 1)); echo "FAIL - $*"; }
+# A free TCP port of 127.0.0.1 (another process could take it before QEMU does: QEMU then
+# fails and the step that needs it says so).
+free_port() {
+    python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+}
+# await_line PATTERN FILE: waits up to 30 s for a line matching PATTERN in FILE (a console
+# QEMU writes; the caller then checks the line itself).
+await_line() {
+    for _ in $(seq 150); do
+        grep -q "$1" "$2" && return
+        sleep 0.2
+    done
+}
 
 build_log="$WORK/build.log"
 if ! "$S/build-arm.sh" >"$build_log" 2>&1; then
@@ -136,13 +149,10 @@ crosscheck_dumps "$fast_ok" crosscheck-fast \
 # 2d. The host CLI against the firmware serving on its UART (run-qemu.sh --serve-uart: UART1's
 #     bytes go to a TCP socket): `fsm camera info`, then `fsm camera scan` of the simulator's
 #     plane_mirror dump (two-group EFSM, 32 rows x 48 pixels), compared with the host's decode.
-uart_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+uart_port="$(free_port)"
 "$S/run-qemu.sh" --serve-uart "$uart_port" "$ELF" >uart-console.txt 2>uart-qemu.txt &
 uart_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
-for _ in $(seq 150); do
-    grep -q '^SERVE UART1' uart-console.txt && break
-    sleep 0.2
-done
+await_line '^SERVE UART1' uart-console.txt
 uart_dev="tcp://127.0.0.1:$uart_port"
 if [ "$sim_ok" = 1 ] && grep -q '^SERVE UART1' uart-console.txt \
     && "$FSM" camera info --device "$uart_dev" >uart-info.txt 2>&1 \
@@ -165,13 +175,10 @@ wait "$uart_qemu" 2>/dev/null || true
 #     `fsm camera scan` of the simulator's plane_mirror dumps (BFSM and two-group EFSM, 32 rows x
 #     48 pixels) compared with the host's decode; then hosts that misbehave (garbage, a reset
 #     mid-frame) and a whole scan again, which must still be byte-identical.
-net_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+net_port="$(free_port)"
 "$S/run-qemu.sh" --serve-net "$net_port" "$ELF" >net-console.txt 2>net-qemu.txt &
 net_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
-for _ in $(seq 150); do
-    grep -q '^SERVE NET' net-console.txt && break
-    sleep 0.2
-done
+await_line '^SERVE NET' net-console.txt
 net_dev="tcp://127.0.0.1:$net_port"
 net_up=0
 grep -q '^SERVE NET 10.0.2.15:7070 ' net-console.txt && net_up=1
@@ -285,14 +292,11 @@ else
 fi
 # boot.cmd's `mw.l ADDR VALUE` lines as run-qemu.sh's `--word ADDR=VALUE`.
 mapfile -t board_words < <(sed -n 's/^mw.l \(0x[0-9a-f]*\) \(0x[0-9a-f]*\)$/--word\n\1=\2/p' "$images/boot.cmd" 2>/dev/null)
-board_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+board_port="$(free_port)"
 "$S/run-qemu.sh" --board --serve-net "$board_port" --guest 10.0.2.16:7071 \
     ${board_words[@]+"${board_words[@]}"} "$images/fsm-firmware.bin" >board-console.txt 2>board-qemu.txt &
 board_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
-for _ in $(seq 150); do
-    grep -q '^SERVE NET' board-console.txt && break
-    sleep 0.2
-done
+await_line '^SERVE NET' board-console.txt
 board_up=0
 [ "$images_ok" = 1 ] && grep -q '^BOARD no debugger answers' board-console.txt \
     && grep -q '^SERVE NET 10.0.2.16:7071 ' board-console.txt && board_up=1
@@ -320,14 +324,11 @@ wait "$board_qemu" 2>/dev/null || true
 dhcp_images="$WORK/images-dhcp"
 mapfile -t dhcp_words < <("$S/image-arm.sh" --elf "$ELF" --out "$dhcp_images" --address dhcp --port 7071 >/dev/null 2>&1 \
     && sed -n 's/^mw.l \(0x[0-9a-f]*\) \(0x[0-9a-f]*\)$/--word\n\1=\2/p' "$dhcp_images/boot.cmd")
-dhcp_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+dhcp_port="$(free_port)"
 "$S/run-qemu.sh" --board --serve-net "$dhcp_port" --guest 10.0.2.15:7071 \
     ${dhcp_words[@]+"${dhcp_words[@]}"} "$dhcp_images/fsm-firmware.bin" >dhcp-console.txt 2>dhcp-qemu.txt &
 dhcp_qemu=$!
-for _ in $(seq 150); do
-    grep -q '^SERVE NET' dhcp-console.txt && break
-    sleep 0.2
-done
+await_line '^SERVE NET' dhcp-console.txt
 if [ "${#dhcp_words[@]}" = 10 ] && grep -q '^SERVE NET 10.0.2.15:7071 (/24 leased by DHCP' dhcp-console.txt \
     && "$FSM" camera info --device "tcp://127.0.0.1:$dhcp_port" >dhcp-info.txt 2>&1 \
     && grep -q '^max pixels per row *4096' dhcp-info.txt; then
@@ -451,19 +452,16 @@ else
         fi
         # The same ELF booted as a board (no semihosting host): its defmt frames go out on
         # UART0, which QEMU writes to a file; a scan over Ethernet logs its session there.
-        defmt_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+        defmt_port="$(free_port)"
         rm -f defmt-uart0.bin
         "$S/run-qemu.sh" --board --serve-net "$defmt_port" --defmt defmt-uart0.bin defmt.elf \
             >defmt-board-console.txt 2>defmt-board-qemu.txt &
         defmt_qemu=$!
-        for _ in $(seq 150); do
-            grep -q '^SERVE NET' defmt-board-console.txt && break
-            sleep 0.2
-        done
+        await_line '^SERVE NET' defmt-board-console.txt
         net_dev="tcp://127.0.0.1:$defmt_port"
-        uart_scan_ok=0
+        defmt_scan_ok=0
         if [ "$sim_ok" = 1 ] && net_scan paper-efsm-2 defmt-board >defmt-board.rate; then
-            uart_scan_ok=1
+            defmt_scan_ok=1
         fi
         # The session's line is logged once the host has gone: give it a moment.
         sleep 1
@@ -471,7 +469,7 @@ else
         wait "$defmt_qemu" 2>/dev/null || true
         defmt-print -e defmt.elf <defmt-uart0.bin >defmt-uart0.txt 2>&1 || true
         cat defmt-uart0.txt
-        if [ "$uart_scan_ok" = 1 ] \
+        if [ "$defmt_scan_ok" = 1 ] \
             && grep -q 'INFO  serving the host protocol over TCP at 10.0.2.15:7070' defmt-uart0.txt \
             && grep -q 'INFO  session: [0-9]* requests, 32 rows, 0 refused' defmt-uart0.txt; then
             ok "defmt log of a board (no semihosting) written on UART0 and decoded; the scan over Ethernet bit-identical"
