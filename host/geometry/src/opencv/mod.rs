@@ -24,22 +24,24 @@
 //! The reader handles the subset of FileStorage that OpenCV writes: YAML (`%YAML:1.0`, which
 //! is not valid YAML 1.2 — block and flow maps and sequences, plain and quoted scalars,
 //! comments, `!!opencv-matrix` nodes) and XML (`<opencv_storage>`, `type_id="opencv-matrix"`
-//! elements, whitespace-separated sequences, comments and the five entities). The syntax is
-//! recognised from the content, not the file name. Nothing in a file can make the reader panic
-//! or recurse without bound (nesting is limited to [`MAX_DEPTH`]).
+//! elements, whitespace-separated sequences, comments, CDATA, the five entities and character
+//! references). The syntax is recognised from the content, not the file name. Nothing in a file
+//! can make the reader panic or recurse without bound (nesting is limited to [`MAX_DEPTH`]).
 //!
 //! | concern | file |
 //! |---|---|
 //! | the tools' key sets, units, syntaxes, errors | `mod.rs` |
 //! | the document tree both syntaxes parse into, its matrices | `document.rs` |
 //! | the YAML subset | `yaml.rs` |
-//! | the XML subset | `xml.rs` |
+//! | the XML subset (through quick-xml) | `xml.rs` |
 //! | a document's keys to a [`Calibration`](crate::Calibration) (import) | `read.rs` |
 //! | a [`Calibration`](crate::Calibration) to a tool's file (export) | `write.rs` |
 //!
-//! The two parsers are our own: OpenCV's `%YAML:1.0` header is not valid YAML (the maintained
-//! YAML crates refuse it, and `serde_yaml` is no longer maintained), and the subset both
-//! syntaxes need is small enough to bound every input's cost, which the fuzz targets check.
+//! The XML is tokenized by `quick-xml`, a maintained streaming reader; the tree, the nesting
+//! bound and the messages stay ours. The YAML parser is our own: OpenCV's `%YAML:1.0` header is
+//! not valid YAML (the maintained YAML crates refuse it, and `serde_yaml` is no longer
+//! maintained), and the subset it needs is small enough to bound every input's cost. The fuzz
+//! targets check both.
 
 mod document;
 mod read;

@@ -1,46 +1,67 @@
 //! The XML subset OpenCV writes (`<opencv_storage>`): elements, `type_id="opencv-matrix"`,
-//! whitespace-separated sequences, comments and the five entities.
+//! whitespace-separated sequences, comments, CDATA, the five entities and character references.
+//!
+//! quick-xml tokenizes; the tree, the nesting bound ([`MAX_DEPTH`], kept on our own stack so no
+//! input recurses) and the refusals of what OpenCV never writes (DOCTYPE, processing
+//! instructions inside elements) are ours, as are the messages, which name the line.
+
+use quick_xml::errors::{Error, IllFormedError, SyntaxError as XmlSyntax};
+use quick_xml::escape::{resolve_xml_entity, unescape, EscapeError};
+use quick_xml::events::attributes::AttrError;
+use quick_xml::events::{BytesRef, BytesStart, Event};
+use quick_xml::Reader;
 
 use super::{syntax, Document, Node, Syntax, SyntaxError, MAX_DEPTH};
 
-struct Parser<'a> {
-    text: &'a str,
-    pos: usize,
-}
+const ROOT: &str = "opencv_storage";
 
+const DOCTYPE: &str = "a DOCTYPE (not written by OpenCV) is not read";
+
+/// The document of `<opencv_storage>` text; an error names its line in `text`.
 pub fn parse(text: &str) -> Result<Document, SyntaxError> {
     let text = text.trim_start_matches('\u{feff}');
-    let mut p = Parser { text, pos: 0 };
-    p.misc()?;
-    if p.rest().starts_with("<?xml") {
-        p.skip_past("?>", "an unclosed `<?xml` declaration")?;
+    let mut reader = Reader::from_str(text);
+    // End tags are matched against our stack instead, so the message can name both elements.
+    reader.config_mut().check_end_names = false;
+    let mut p = Parser {
+        lines: Lines {
+            text,
+            offset: 0,
+            line: 1,
+        },
+        open: Vec::new(),
+        root: None,
+        declared: false,
+    };
+    loop {
+        let at = reader.buffer_position();
+        let event = match reader.read_event() {
+            Ok(event) => event,
+            Err(e) => {
+                // A position the reader did not set is 0: the event's start is better.
+                let line = p.lines.at(reader.error_position().max(at));
+                return Err(syntax(line, message(&e)));
+            }
+        };
+        if !p.event(event, at)? {
+            break;
+        }
     }
-    p.misc()?;
-    if p.rest().starts_with("<!DOCTYPE") {
-        return Err(p.error("a DOCTYPE (not written by OpenCV) is not read"));
-    }
-    let (name, _, node) = p.element(0)?;
-    if name != "opencv_storage" {
-        return Err(syntax(
-            1,
-            format!("the root element is <{name}>, expected <opencv_storage>"),
-        ));
-    }
-    p.misc()?;
-    if p.pos < p.text.len() {
-        return Err(p.error("text after </opencv_storage>"));
-    }
-    let entries = match node {
-        Node::Map { entries, .. } => entries,
-        Node::Scalar { text, .. } if text.is_empty() => Vec::new(),
-        other => {
+    let entries = match p.root {
+        Some(Node::Map { entries, .. }) => entries,
+        Some(Node::Scalar { text, .. }) if text.is_empty() => Vec::new(),
+        Some(other) => {
             return Err(syntax(
                 1,
-                format!(
-                    "<opencv_storage> must hold elements, found {}",
-                    other.describe()
-                ),
+                format!("<{ROOT}> must hold elements, found {}", other.describe()),
             ))
+        }
+        None => {
+            let line = p.lines.at(text.len() as u64);
+            return Err(syntax(
+                line,
+                format!("expected the root element <{ROOT}>, found the end of the text"),
+            ));
         }
     };
     Ok(Document {
@@ -49,208 +70,382 @@ pub fn parse(text: &str) -> Result<Document, SyntaxError> {
     })
 }
 
-fn is_name_char(c: char) -> bool {
-    c.is_alphanumeric() || "_-.:".contains(c)
+/// An element whose end tag is still to come.
+struct Open {
+    name: String,
+    /// The line of its start tag.
+    line: usize,
+    type_id: Option<String>,
+    text: String,
+    children: Vec<(String, Node)>,
+}
+
+struct Parser<'a> {
+    lines: Lines<'a>,
+    /// The open elements, the root first; never longer than `MAX_DEPTH + 1`.
+    open: Vec<Open>,
+    /// The root's node, once `</opencv_storage>` is read.
+    root: Option<Node>,
+    /// Whether `<?xml …?>` was read.
+    declared: bool,
 }
 
 impl Parser<'_> {
-    fn rest(&self) -> &str {
-        &self.text[self.pos..]
-    }
-
-    fn line(&self) -> usize {
-        self.text[..self.pos].matches('\n').count() + 1
-    }
-
-    fn error(&self, message: impl Into<String>) -> SyntaxError {
-        syntax(self.line(), message)
-    }
-
-    fn skip_past(&mut self, end: &str, what: &str) -> Result<(), SyntaxError> {
-        match self.rest().find(end) {
-            Some(i) => {
-                self.pos += i + end.len();
-                Ok(())
-            }
-            None => Err(self.error(what)),
-        }
-    }
-
-    fn skip_ws(&mut self) {
-        let rest = self.rest();
-        self.pos += rest.len() - rest.trim_start().len();
-    }
-
-    /// White space, comments and processing instructions.
-    fn misc(&mut self) -> Result<(), SyntaxError> {
-        loop {
-            self.skip_ws();
-            if self.rest().starts_with("<!--") {
-                self.skip_past("-->", "an unclosed comment")?;
-            } else if self.rest().starts_with("<?") && !self.rest().starts_with("<?xml") {
-                self.skip_past("?>", "an unclosed processing instruction")?;
-            } else {
-                return Ok(());
-            }
-        }
-    }
-
-    fn name(&mut self) -> Result<String, SyntaxError> {
-        let rest = self.rest();
-        let len = rest
-            .char_indices()
-            .find(|(_, c)| !is_name_char(*c))
-            .map_or(rest.len(), |(i, _)| i);
-        if len == 0 {
-            return Err(self.error("expected an element or attribute name"));
-        }
-        let name = rest[..len].to_string();
-        self.pos += len;
-        Ok(name)
-    }
-
-    /// `<name attrs>content</name>` or `<name attrs/>`: the name, its `type_id` and its
-    /// node.
-    fn element(&mut self, depth: usize) -> Result<(String, Option<String>, Node), SyntaxError> {
-        if depth > MAX_DEPTH {
-            return Err(self.error(format!("nested deeper than {MAX_DEPTH} levels")));
-        }
-        if !self.rest().starts_with('<') {
-            return Err(self.error("expected an element"));
-        }
-        let start_line = self.line();
-        self.pos += 1;
-        let name = self.name()?;
-        let mut type_id = None;
-        loop {
-            self.skip_ws();
-            if self.rest().starts_with("/>") {
-                self.pos += 2;
-                let node = match type_id {
-                    Some(t) => Node::Map {
-                        tag: Some(t),
-                        entries: Vec::new(),
-                    },
-                    None => Node::plain(""),
-                };
-                return Ok((name, None, node));
-            }
-            if self.rest().starts_with('>') {
-                self.pos += 1;
-                break;
-            }
-            let attr = self.name()?;
-            self.skip_ws();
-            if !self.rest().starts_with('=') {
-                return Err(self.error(format!("attribute `{attr}` without a value")));
-            }
-            self.pos += 1;
-            self.skip_ws();
-            let q = match self.rest().chars().next() {
-                Some(q @ ('"' | '\'')) => q,
-                _ => return Err(self.error(format!("attribute `{attr}`: expected a quote"))),
-            };
-            self.pos += 1;
-            let Some(end) = self.rest().find(q) else {
-                return Err(self.error(format!("attribute `{attr}`: unclosed quote")));
-            };
-            let value = decode(&self.rest()[..end]).map_err(|m| self.error(m))?;
-            self.pos += end + 1;
-            if attr == "type_id" {
-                type_id = Some(value);
-            }
-        }
-        // Content: text and child elements.
-        let mut text = String::new();
-        let mut children: Vec<(String, Node)> = Vec::new();
-        loop {
-            let rest = self.rest();
-            let Some(lt) = rest.find('<') else {
-                return Err(syntax(start_line, format!("<{name}> is never closed")));
-            };
-            text.push_str(&decode(&rest[..lt]).map_err(|m| self.error(m))?);
-            self.pos += lt;
-            let rest = self.rest();
-            if rest.starts_with("<!--") {
-                self.skip_past("-->", "an unclosed comment")?;
-            } else if rest.starts_with("<![CDATA[") {
-                self.pos += 9;
-                let Some(end) = self.rest().find("]]>") else {
-                    return Err(self.error("an unclosed CDATA section"));
-                };
-                text.push_str(&self.rest()[..end]);
-                self.pos += end + 3;
-            } else if rest.starts_with("</") {
-                self.pos += 2;
-                let close = self.name()?;
-                self.skip_ws();
-                if !self.rest().starts_with('>') {
-                    return Err(self.error(format!("</{close} is not closed by `>`")));
-                }
-                self.pos += 1;
-                if close != name {
-                    return Err(self.error(format!(
-                        "</{close}> closes <{name}> (opened on line {start_line})"
-                    )));
-                }
-                break;
-            } else if rest.starts_with("<?") || rest.starts_with("<!") {
-                return Err(self.error("unexpected markup"));
-            } else {
-                let child_line = self.line();
-                let (child, _, node) = self.element(depth + 1)?;
-                if child != "_" && children.iter().any(|(k, _)| *k == child) {
+    /// Takes one event that starts at byte `at`; `false` at the end of the text.
+    fn event(&mut self, event: Event<'_>, at: u64) -> Result<bool, SyntaxError> {
+        let line = self.lines.at(at);
+        match event {
+            Event::Start(tag) => self.start(&tag, at, false)?,
+            Event::Empty(tag) => self.start(&tag, at, true)?,
+            Event::End(tag) => {
+                let name: &str = &tag;
+                if !is_name(name) {
                     return Err(syntax(
-                        child_line,
-                        format!("key `{child}` appears twice in <{name}>"),
+                        line,
+                        format!(
+                            "expected an element name after `</`, found {:?}",
+                            shown(name)
+                        ),
                     ));
                 }
-                children.push((child, node));
+                let Some(mut open) = self.open.pop() else {
+                    return Err(syntax(line, format!("</{name}> after </{ROOT}>")));
+                };
+                if name != open.name {
+                    return Err(syntax(
+                        line,
+                        format!(
+                            "</{name}> closes <{}> (opened on line {})",
+                            open.name, open.line
+                        ),
+                    ));
+                }
+                let node = open.node()?;
+                self.close(open.name, node);
+            }
+            Event::Text(t) => self.text(&t, at, "text")?,
+            Event::CData(t) => self.text(&t, at, "a CDATA section")?,
+            Event::GeneralRef(r) => {
+                let c = resolve(&r).map_err(|m| syntax(line, m))?;
+                self.text(&c, at, "a reference")?;
+            }
+            Event::Comment(_) => {}
+            Event::Decl(_) | Event::PI(_) => {
+                let decl = matches!(event, Event::Decl(_));
+                if let Some(open) = self.open.last() {
+                    return Err(syntax(
+                        line,
+                        format!(
+                            "a processing instruction inside <{}> (OpenCV writes none)",
+                            open.name
+                        ),
+                    ));
+                }
+                if decl && self.root.is_some() {
+                    return Err(syntax(line, format!("`<?xml` after </{ROOT}>")));
+                }
+                if decl && self.declared {
+                    return Err(syntax(line, "a second `<?xml` declaration"));
+                }
+                self.declared |= decl;
+            }
+            Event::DocType(_) => return Err(syntax(line, DOCTYPE)),
+            Event::Eof => {
+                if let Some(open) = self.open.last() {
+                    return Err(syntax(
+                        open.line,
+                        format!("<{}> is never closed", open.name),
+                    ));
+                }
+                return Ok(false);
             }
         }
-        let node = if !children.is_empty() {
-            if !text.trim().is_empty() {
-                return Err(syntax(
-                    start_line,
-                    format!("<{name}> mixes text and elements"),
-                ));
-            }
-            if children.iter().all(|(k, _)| k == "_") {
-                Node::Seq(children.into_iter().map(|(_, n)| n).collect())
-            } else {
-                Node::Map {
-                    tag: type_id.clone(),
-                    entries: children,
-                }
-            }
-        } else if type_id.is_some() {
-            if !text.trim().is_empty() {
-                return Err(syntax(
-                    start_line,
-                    format!("<{name} type_id=…> holds text instead of elements"),
-                ));
-            }
-            Node::Map {
-                tag: type_id.clone(),
-                entries: Vec::new(),
-            }
-        } else {
-            let tokens = tokens(&text).map_err(|m| syntax(start_line, m))?;
-            match tokens.len() {
-                0 => Node::plain(""),
-                1 => {
-                    let (t, quoted) = tokens.into_iter().next().unwrap_or_default();
-                    Node::Scalar { text: t, quoted }
-                }
-                _ => Node::Seq(
-                    tokens
-                        .into_iter()
-                        .map(|(text, quoted)| Node::Scalar { text, quoted })
-                        .collect(),
+        Ok(true)
+    }
+
+    /// A start tag (`empty`: `<name …/>`) at byte `at`.
+    fn start(&mut self, tag: &BytesStart<'_>, at: u64, empty: bool) -> Result<(), SyntaxError> {
+        let line = self.lines.at(at);
+        let name = tag.name().as_ref().to_string();
+        if !is_name(&name) {
+            return Err(syntax(
+                line,
+                format!(
+                    "expected an element name after `<`, found {:?}",
+                    shown(&name)
                 ),
+            ));
+        }
+        if self.root.is_some() {
+            return Err(syntax(
+                line,
+                format!("<{name}> after </{ROOT}> (a file has one root element)"),
+            ));
+        }
+        if self.open.len() > MAX_DEPTH {
+            return Err(syntax(
+                line,
+                format!("nested deeper than {MAX_DEPTH} levels"),
+            ));
+        }
+        match self.open.last() {
+            None if name != ROOT => {
+                return Err(syntax(
+                    1,
+                    format!("the root element is <{name}>, expected <{ROOT}>"),
+                ))
             }
+            Some(parent) if name != "_" && parent.children.iter().any(|(k, _)| *k == name) => {
+                return Err(syntax(
+                    line,
+                    format!("key `{name}` appears twice in <{}>", parent.name),
+                ))
+            }
+            _ => {}
+        }
+        let mut open = Open {
+            type_id: self.type_id(tag, &name, at)?,
+            name,
+            line,
+            text: String::new(),
+            children: Vec::new(),
         };
-        Ok((name, type_id, node))
+        if empty {
+            let node = open.node()?;
+            self.close(open.name, node);
+        } else {
+            self.open.push(open);
+        }
+        Ok(())
+    }
+
+    /// The `type_id` of a start tag at byte `at`; every attribute must be well-formed.
+    fn type_id(
+        &mut self,
+        tag: &BytesStart<'_>,
+        name: &str,
+        at: u64,
+    ) -> Result<Option<String>, SyntaxError> {
+        let content: &str = tag;
+        let mut type_id = None;
+        for attr in tag.attributes() {
+            let attr = attr.map_err(|e| {
+                let (pos, m) = attr_message(content, name, &e);
+                // `pos` counts from the byte after `<`.
+                syntax(self.lines.at(at + 1 + pos as u64), m)
+            })?;
+            let key = attr.key.as_ref();
+            // The key is a slice of the tag, so its distance from the tag's start is its place.
+            let pos = (key.as_ptr() as usize).saturating_sub(content.as_ptr() as usize);
+            let line = self.lines.at(at + 1 + pos as u64);
+            if !is_name(key) {
+                return Err(syntax(
+                    line,
+                    format!("<{name}>: `{}` is not an attribute name", shown(key)),
+                ));
+            }
+            let value = unescape(&attr.value).map_err(|e| syntax(line, escape_message(&e)))?;
+            if key == "type_id" {
+                type_id = Some(value.into_owned());
+            }
+        }
+        Ok(type_id)
+    }
+
+    /// Text (or CDATA, or a resolved reference) at byte `at`: content inside an element,
+    /// white space only outside.
+    fn text(&mut self, t: &str, at: u64, what: &str) -> Result<(), SyntaxError> {
+        if let Some(open) = self.open.last_mut() {
+            open.text.push_str(t);
+            return Ok(());
+        }
+        let trimmed = t.trim_start();
+        if trimmed.is_empty() && what == "text" {
+            return Ok(());
+        }
+        let line = self.lines.at(at + (t.len() - trimmed.len()) as u64);
+        Err(syntax(
+            line,
+            match self.root {
+                Some(_) => format!("{what} after </{ROOT}>"),
+                None => format!("expected the root element <{ROOT}>, found {what}"),
+            },
+        ))
+    }
+
+    /// Gives a finished element to its parent, or makes it the root.
+    fn close(&mut self, name: String, node: Node) {
+        match self.open.last_mut() {
+            Some(parent) => parent.children.push((name, node)),
+            None => self.root = Some(node),
+        }
+    }
+}
+
+impl Open {
+    /// Child elements make a map (a sequence when all are `<_>`); text makes a scalar, or a
+    /// sequence when it has several tokens.
+    fn node(&mut self) -> Result<Node, SyntaxError> {
+        let (name, line, text) = (&self.name, self.line, self.text.trim());
+        let children = std::mem::take(&mut self.children);
+        if !children.is_empty() && !text.is_empty() {
+            return Err(syntax(line, format!("<{name}> mixes text and elements")));
+        }
+        if self.type_id.is_some() && !text.is_empty() {
+            let m = format!("<{name} type_id=…> holds text instead of elements");
+            return Err(syntax(line, m));
+        }
+        if !children.is_empty() && children.iter().all(|(k, _)| k == "_") {
+            return Ok(Node::Seq(children.into_iter().map(|(_, n)| n).collect()));
+        }
+        if !children.is_empty() || self.type_id.is_some() {
+            let tag = self.type_id.take();
+            return Ok(Node::Map {
+                tag,
+                entries: children,
+            });
+        }
+        let tokens = tokens(text).map_err(|m| syntax(line, m))?;
+        let mut items: Vec<Node> = tokens
+            .into_iter()
+            .map(|(text, quoted)| Node::Scalar { text, quoted })
+            .collect();
+        Ok(match items.len() {
+            0 => Node::plain(""),
+            1 => items.remove(0),
+            _ => Node::Seq(items),
+        })
+    }
+}
+
+/// Line numbers of byte offsets, counted on from the last offset asked for, so that a whole
+/// file costs one pass.
+struct Lines<'a> {
+    text: &'a str,
+    offset: usize,
+    line: usize,
+}
+
+impl Lines<'_> {
+    fn at(&mut self, offset: u64) -> usize {
+        let offset = usize::try_from(offset)
+            .unwrap_or(usize::MAX)
+            .min(self.text.len());
+        if offset < self.offset {
+            self.offset = 0;
+            self.line = 1;
+        }
+        let bytes = &self.text.as_bytes()[self.offset..offset];
+        self.line += bytes.iter().filter(|&&b| b == b'\n').count();
+        self.offset = offset;
+        self.line
+    }
+}
+
+/// Letters, digits and `_ - . :`, as before quick-xml (which takes anything up to white space).
+fn is_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_alphanumeric() || "_-.:".contains(c))
+}
+
+/// `&lt; &gt; &amp; &quot; &apos;` and `&#…;`; other entities need a DTD, which is not read.
+fn resolve(r: &BytesRef<'_>) -> Result<String, String> {
+    let name: &str = r;
+    if !plausible_entity(name) {
+        return Err(NOT_AN_ENTITY.into());
+    }
+    if r.is_char_ref() {
+        return match r.resolve_char_ref() {
+            Ok(Some(c)) => Ok(c.to_string()),
+            _ => Err(format!("`&{name};` is not a valid character reference")),
+        };
+    }
+    resolve_xml_entity(name)
+        .map(str::to_string)
+        .ok_or_else(|| format!("unknown entity `&{name};`"))
+}
+
+const NOT_AN_ENTITY: &str = "an `&` that does not start an entity";
+
+/// Whether `&name;` looks meant as a reference: quick-xml's runs to the next `;`, however far.
+fn plausible_entity(name: &str) -> bool {
+    !name.is_empty() && name.len() <= 32 && !name.contains(char::is_whitespace)
+}
+
+fn escape_message(e: &EscapeError) -> String {
+    match e {
+        EscapeError::UnrecognizedEntity(_, name) if plausible_entity(name) => {
+            format!("unknown entity `&{name};`")
+        }
+        EscapeError::InvalidCharRef(e) => format!("an invalid character reference ({e})"),
+        _ => NOT_AN_ENTITY.into(),
+    }
+}
+
+/// The message of a malformed attribute of `<name …>`, and where it is (the start of the
+/// attribute's name, counted from the byte after `<` as quick-xml counts).
+fn attr_message(content: &str, name: &str, e: &AttrError) -> (usize, String) {
+    let (end, what) = match *e {
+        AttrError::ExpectedEq(p) => (p, "without a value"),
+        AttrError::ExpectedValue(p) => (p, "without a value after `=`"),
+        AttrError::UnquotedValue(p) => (p, "without quotes (`\"` or `'`) around its value"),
+        AttrError::ExpectedQuote(p, _) => (p, "without its closing quote"),
+        AttrError::Duplicated(p, _) => {
+            let rest = content.get(p..).unwrap_or("");
+            (
+                p + rest.find(separator).unwrap_or(rest.len()),
+                "given twice",
+            )
+        }
+    };
+    // The attribute's name is the last word before `end`, white space and `=` skipped.
+    let head = content.get(..end).unwrap_or(content);
+    let head = head.trim_end_matches(separator);
+    let start = head
+        .rfind(|c: char| c.is_ascii_whitespace())
+        .map_or(0, |i| i + 1);
+    let key = shown(&head[start..]);
+    (start, format!("<{name}>: attribute `{key}` {what}"))
+}
+
+/// What ends an attribute's name for quick-xml: ASCII white space (one byte, so the byte after
+/// it starts a character) or `=`.
+fn separator(c: char) -> bool {
+    c.is_ascii_whitespace() || c == '='
+}
+
+/// At most 40 characters of `s`, for messages about text that is not a name.
+fn shown(s: &str) -> String {
+    match s.char_indices().nth(40) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s.to_string(),
+    }
+}
+
+/// The message of an error of quick-xml's tokenizer, in the words of the other messages.
+fn message(e: &Error) -> String {
+    use IllFormedError as Ill;
+    match e {
+        Error::Syntax(XmlSyntax::UnclosedDoctype) | Error::IllFormed(Ill::MissingDoctypeName) => {
+            DOCTYPE.into()
+        }
+        Error::Syntax(XmlSyntax::InvalidBangMarkup) => {
+            "unexpected markup after `<!` (OpenCV writes only comments there)".into()
+        }
+        Error::Syntax(XmlSyntax::UnclosedPI) => "an unclosed processing instruction".into(),
+        Error::Syntax(XmlSyntax::UnclosedXmlDecl) => "an unclosed `<?xml` declaration".into(),
+        Error::Syntax(XmlSyntax::UnclosedComment) => "an unclosed comment".into(),
+        Error::Syntax(XmlSyntax::UnclosedCData) => "an unclosed CDATA section".into(),
+        Error::Syntax(XmlSyntax::UnclosedTag) => "a tag without its closing `>`".into(),
+        Error::Syntax(
+            XmlSyntax::UnclosedSingleQuotedAttributeValue
+            | XmlSyntax::UnclosedDoubleQuotedAttributeValue,
+        ) => "an attribute value without its closing quote".into(),
+        Error::IllFormed(Ill::UnclosedReference) => NOT_AN_ENTITY.into(),
+        Error::IllFormed(Ill::UnmatchedEndTag(name)) => format!("</{name}> after </{ROOT}>"),
+        other => other.to_string(),
     }
 }
 
@@ -286,44 +481,5 @@ fn tokens(text: &str) -> Result<Vec<(String, bool)>, String> {
             out.push((s, false));
         }
     }
-    Ok(out)
-}
-
-/// Decodes `&lt; &gt; &amp; &quot; &apos;` and numeric references.
-fn decode(s: &str) -> Result<String, String> {
-    if !s.contains('&') {
-        return Ok(s.to_string());
-    }
-    let mut out = String::with_capacity(s.len());
-    let mut rest = s;
-    while let Some(i) = rest.find('&') {
-        out.push_str(&rest[..i]);
-        rest = &rest[i + 1..];
-        let Some(end) = rest.find(';').filter(|&e| e <= 12) else {
-            return Err("an `&` that does not start an entity".into());
-        };
-        let entity = &rest[..end];
-        let c = match entity {
-            "lt" => '<',
-            "gt" => '>',
-            "amp" => '&',
-            "quot" => '"',
-            "apos" => '\'',
-            _ => {
-                let code = if let Some(h) = entity.strip_prefix("#x") {
-                    u32::from_str_radix(h, 16).ok()
-                } else if let Some(d) = entity.strip_prefix('#') {
-                    d.parse::<u32>().ok()
-                } else {
-                    None
-                };
-                code.and_then(char::from_u32)
-                    .ok_or_else(|| format!("unknown entity `&{entity};`"))?
-            }
-        };
-        out.push(c);
-        rest = &rest[end + 1..];
-    }
-    out.push_str(rest);
     Ok(out)
 }

@@ -893,6 +893,168 @@ fn syntax_errors_have_lines() {
     assert!(e.to_string().starts_with("bad.yml: line 2: "), "{e}");
 }
 
+/// `body` inside `<opencv_storage>`, after the `<?xml …?>` line: it starts on line 3.
+fn xml_with(body: &str) -> String {
+    format!("<?xml version=\"1.0\"?>\n<opencv_storage>\n{body}\n</opencv_storage>\n")
+}
+
+#[test]
+fn the_xml_reader_takes_cdata_references_and_prolog_markup() {
+    let scalar = |text: &str, quoted| Node::Scalar {
+        text: text.into(),
+        quoted,
+    };
+    // CDATA is element text: tokenized like the rest, its markup and `&` not interpreted.
+    let doc = Document::parse(&xml_with(
+        "<a><![CDATA[1 \"x y\"]]> 2</a>\n<b><![CDATA[<c>&amp;]]></b>",
+    ))
+    .unwrap();
+    assert_eq!(
+        doc.get("a"),
+        Some(&Node::Seq(vec![
+            scalar("1", false),
+            scalar("x y", true),
+            scalar("2", false)
+        ]))
+    );
+    assert_eq!(doc.get("b"), Some(&scalar("<c>&amp;", false)));
+    // The five entities and character references, in text and in `type_id`.
+    let doc = Document::parse(&xml_with(
+        "<a>&lt;&gt;&amp;&apos;&#x41;&#66;</a>\n<q>&quot;two words&quot;</q>\n\
+         <m type_id='opencv&#x2d;matrix'></m>",
+    ))
+    .unwrap();
+    assert_eq!(doc.get("a"), Some(&scalar("<>&'AB", false)));
+    assert_eq!(doc.get("q"), Some(&scalar("two words", true)));
+    assert!(matches!(doc.get("m"), Some(Node::Map { tag: Some(t), .. }) if t == "opencv-matrix"));
+    // A BOM, comments and processing instructions around the root, `</a >`.
+    let text = "\u{feff}<!-- c --><?xml version=\"1.0\"?><?xml-stylesheet href='s'?>\n\
+        <opencv_storage><a >1</a ></opencv_storage>\n<!-- end --><?pi?>\n";
+    assert_eq!(Document::parse(text).unwrap().keys(), ["a"]);
+}
+
+#[test]
+fn xml_refusals_name_the_line_and_the_element() {
+    let cases: &[(String, usize, &[&str])] = &[
+        // Tags: mismatched, unclosed, bad names.
+        (
+            xml_with("<a>\n<b>1</a>"),
+            4,
+            &["</a> closes <b> (opened on line 4)"],
+        ),
+        (
+            "<?xml version=\"1.0\"?>\n<opencv_storage>\n<a>\n<b>1</b>".into(),
+            3,
+            &["<a> is never closed"],
+        ),
+        (
+            "<?xml version=\"1.0\"?>\n<opencv_storage>\n<a b='1'".into(),
+            3,
+            &["without its closing `>`"],
+        ),
+        (xml_with("<>1</>"), 3, &["expected an element name"]),
+        (
+            xml_with("<a>1</ a>"),
+            3,
+            &["expected an element name after `</`"],
+        ),
+        // Attributes, the line of the attribute in a tag over several lines.
+        (
+            xml_with("<a\n\n b=x>1</a>"),
+            5,
+            &["<a>", "`b`", "without quotes"],
+        ),
+        (xml_with("<a b>1</a>"), 3, &["<a>", "`b` without a value"]),
+        (
+            xml_with("<a b=>1</a>"),
+            3,
+            &["<a>", "`b` without a value after `=`"],
+        ),
+        (
+            xml_with("<a\n type_id='x'\n type_id='y'>1</a>"),
+            5,
+            &["`type_id` given twice"],
+        ),
+        (xml_with("<a b=\"x>1</a>"), 3, &["closing quote"]),
+        // Found by fuzzing: Unicode white space (U+0085) inside an attribute's name.
+        (
+            xml_with("<a b\u{85}c>1</a>"),
+            3,
+            &["attribute `b\u{85}c` without a value"],
+        ),
+        // References.
+        (
+            xml_with("<a>\n1 & 2</a>"),
+            4,
+            &["`&` that does not start an entity"],
+        ),
+        (xml_with("<a>&nbsp;</a>"), 3, &["unknown entity `&nbsp;`"]),
+        (
+            xml_with("<a>&#0;</a>"),
+            3,
+            &["`&#0;`", "character reference"],
+        ),
+        (xml_with("<a b='&foo;'/>"), 3, &["unknown entity `&foo;`"]),
+        // Markup OpenCV does not write.
+        (
+            "<?xml version=\"1.0\"?>\n<!DOCTYPE opencv_storage>\n<opencv_storage/>".into(),
+            2,
+            &["DOCTYPE"],
+        ),
+        (xml_with("<!DOCTYPE x>"), 3, &["DOCTYPE"]),
+        (
+            xml_with("<a>1<?pi?></a>"),
+            3,
+            &["processing instruction inside <a>"],
+        ),
+        (
+            xml_with("<!ELEMENT a>"),
+            3,
+            &["unexpected markup after `<!`"],
+        ),
+        (xml_with("<a><![CDATA[1</a>"), 3, &["unclosed CDATA"]),
+        (xml_with("<!-->"), 3, &["unclosed comment"]),
+        (
+            "<?xml version=\"1.0\"?>\n<?xml version=\"1.0\"?>\n<opencv_storage/>".into(),
+            2,
+            &["second `<?xml`"],
+        ),
+        // Around the root.
+        (
+            "<?xml version=\"1.0\"?>\n<opencv_storage/>\n\n  x".into(),
+            4,
+            &["text after </opencv_storage>"],
+        ),
+        (
+            "<?xml version=\"1.0\"?>\n<opencv_storage/>\n<b/>".into(),
+            3,
+            &["<b> after </opencv_storage>"],
+        ),
+        (
+            "<?xml version=\"1.0\"?>\n<opencv_storage/>\n</b>".into(),
+            3,
+            &["</b> after </opencv_storage>"],
+        ),
+        (
+            "<?xml version=\"1.0\"?>\nx<opencv_storage/>".into(),
+            2,
+            &["expected the root element <opencv_storage>, found text"],
+        ),
+        (
+            "<?xml version=\"1.0\"?>\n<!-- only -->\n".into(),
+            3,
+            &["expected the root element", "end of the text"],
+        ),
+    ];
+    for (text, line, needles) in cases {
+        let e = Document::parse(text).unwrap_err();
+        assert_eq!(e.line, *line, "{text:?}: {e}");
+        for n in *needles {
+            assert!(e.to_string().contains(n), "{text:?}: `{n}` not in: {e}");
+        }
+    }
+}
+
 #[test]
 fn deep_nesting_is_an_error_not_a_stack_overflow() {
     for text in [
