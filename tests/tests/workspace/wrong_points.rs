@@ -73,11 +73,17 @@ const BOUNDS: [(&str, &str, f64, f64, f64); 8] = [
     ("plane_mirror", "EFSM x2", 0.001, 0.95, 0.005),
     ("vgroove", "BFSM", 0.001, 0.99, 0.001),
     ("vgroove", "EFSM x2", 0.005, 0.99, 0.001),
-    ("vgroove_glossy", "BFSM", 0.025, 0.96, 0.002),
+    // The tests take 8 of the band's 3,946 right points (none before the decoder's runs had
+    // feet, which added right points the edge test now judges; 0.3% of the whole image's).
+    ("vgroove_glossy", "BFSM", 0.025, 0.96, 0.003),
     // EFSM under a broad glossy lobe: the decoder's wrong candidates (issue 12), not the
     // selection's; the edge test takes right points there too (neighbours that chose among
-    // wrong candidates look like edges). Bounded so that it cannot get worse unnoticed.
-    ("vgroove_glossy", "EFSM x2", 0.30, 0.30, 0.12),
+    // wrong candidates look like edges). Bounded so that it cannot get worse unnoticed. Since
+    // the decoder reads a run with its feet (issue 12) the whole image is at 5.2% wrong and 77%
+    // complete (13.7% and 49% before), and its rows 100..140 hold 263 wrong points (369
+    // before); this band scanned alone went from 413 to 685 wrong points and from 32% to 35%
+    // complete (its selection has 40 rows to judge from).
+    ("vgroove_glossy", "EFSM x2", 0.34, 0.30, 0.16),
 ];
 
 /// The rows of a scene the default run scans: rows 100..140, except on `sphere_mirror`, which
