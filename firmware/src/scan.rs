@@ -259,6 +259,10 @@ fn unpack_slice(
     n: usize,
     out: &mut [u16],
 ) -> Result<(), WireError> {
+    if n == width {
+        // The whole row: its samples are already sample-major, one copy.
+        return record.copy_range_to(0, out);
+    }
     for (i, frame) in out.chunks_exact_mut(n).enumerate() {
         record.copy_range_to(i * width + x0, frame)?;
     }

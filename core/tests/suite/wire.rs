@@ -12,6 +12,55 @@ use fsm_core::{
 use proptest::prelude::*;
 use support::{Harness, Noise, Pixel};
 
+/// A record's bytes are the table in `wire::candidates`, field by field: written out here by
+/// hand, not by the encoder, so that a faster encoder cannot move a byte unnoticed.
+#[test]
+fn a_candidate_record_has_the_documented_layout() {
+    use fsm_core::{Candidate, Group, GroupSet, PixelFlags};
+    let header = CandidateHeader {
+        capacity: 4,
+        plan_fingerprint: 0x0123_4567_89ab_cdef,
+        width: 2,
+        height: 10,
+    };
+    let mut lit = PixelCandidates::<4>::new();
+    lit.flags = PixelFlags(0b0100);
+    lit.noise_dn = 1.5;
+    for (column, amplitude, block, group) in [
+        (412.25f32, 900.5f32, 0x0102u16, Group::Two),
+        (3.0, 7.0, 9, Group::One),
+    ] {
+        let c = Candidate {
+            column,
+            amplitude,
+            groups: GroupSet(0b11),
+            group,
+            peak: 2,
+            block,
+        };
+        lit.candidates.push(c).unwrap();
+    }
+    let dark = PixelCandidates::<4>::new();
+    let mut expected = Vec::new();
+    expected.extend_from_slice(&7u32.to_le_bytes());
+    expected.extend_from_slice(&((6 + 2 * 16 + 6) as u32).to_le_bytes());
+    expected.extend_from_slice(&[0b0100, 2]);
+    expected.extend_from_slice(&1.5f32.to_le_bytes());
+    expected.extend_from_slice(&412.25f32.to_le_bytes());
+    expected.extend_from_slice(&900.5f32.to_le_bytes());
+    expected.extend_from_slice(&[0x02, 0x01, 0b11, 2, 2, 0, 0, 0]);
+    expected.extend_from_slice(&3.0f32.to_le_bytes());
+    expected.extend_from_slice(&7.0f32.to_le_bytes());
+    expected.extend_from_slice(&[9, 0, 0b11, 1, 2, 0, 0, 0]);
+    expected.extend_from_slice(&[0, 0]);
+    expected.extend_from_slice(&0.0f32.to_le_bytes());
+    let crc = fsm_core::wire::crc32(&expected);
+    expected.extend_from_slice(&crc.to_le_bytes());
+    let mut out = vec![0xAAu8; header.max_record_len().unwrap()];
+    let n = candidates::encode_record(&header, 7, &[lit, dark], &mut out).unwrap();
+    assert_eq!(&out[..n], &expected[..]);
+}
+
 #[test]
 fn plans_round_trip_through_their_canonical_bytes() {
     let mut hann = ScanPlan::paper_efsm(GroupCount::One).with_clean();
