@@ -18,7 +18,7 @@
 //! | candidate files (header + one record per row) | [`candidate_file`] |
 //! | a scan's candidates in memory: one flat list, an offset per pixel | [`candidate_image`] |
 //! | strongest-candidate column map: float TIFF and preview | [`column_map`] |
-//! | plots of one pixel's spectra and one row's c-domain map | [`inspect`] |
+//! | plots of one pixel's spectra (the baselines: its samples) and one row's map | [`inspect`] |
 //! | whole-or-nothing outputs (temporary name, rename) | [`outputs`] |
 //! | progress bars | [`progress`] |
 //!

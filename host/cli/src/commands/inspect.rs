@@ -3,8 +3,10 @@
 use std::path::PathBuf;
 
 use fsm_core::Group;
+use fsm_io::candidate_file::HostCandidates;
 use fsm_io::capture::BadRows;
 use fsm_io::inspect;
+use fsm_io::plan_file::{self, MethodPlan};
 use fsm_io::Result;
 
 use super::{BitDepth, CaptureSource};
@@ -19,6 +21,12 @@ use super::{BitDepth, CaptureSource};
 ///   --row Y      the same for every pixel of camera row Y as an image: pixel across, column
 ///                down (paper Fig. 4e). Direct light draws one line; light reflected from
 ///                elsewhere draws a second, separate line.
+///
+/// For the other methods (phase shift, Micro Phase Shifting, Code Ensemble, line scanning)
+/// --pixel draws the pixel's samples grouped as the method's decoder reads them (fringes
+/// by phase offset, code bits with their threshold or inverse, line scanning's temporal
+/// profile by lit column) and --row the candidates of every pixel against projector column
+/// (line scanning: over the samples, as for FSM).
 ///
 /// Examples:
 ///   fsm inspect --plan plan.toml --images captures/ --pixel 640,480 --out pixel.png
@@ -39,9 +47,9 @@ pub struct Args {
     /// Map one camera row (0-based).
     #[arg(long, value_name = "Y")]
     row: Option<u32>,
-    /// EFSM pattern group shown by --row (1 or 2).
-    #[arg(long, value_name = "G", default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
-    group: u8,
+    /// EFSM pattern group shown by --row (1 or 2; default 1).
+    #[arg(long, value_name = "G", value_parser = clap::value_parser!(u8).range(1..=2))]
+    group: Option<u8>,
     /// Output picture (PNG).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
@@ -52,31 +60,37 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     fsm_io::outputs::check_file_target(&args.out, args.force)?;
-    let plan = super::load_plan(&args.plan)?;
-    let capture = args.source.open(&plan, &args.bit_depth, BadRows::Refuse)?;
+    let plan = plan_file::read_method_plan(&args.plan)?;
+    let capture = args.source.open(plan, &args.bit_depth, BadRows::Refuse)?;
     if let Some((x, y)) = args.pixel {
-        let view = inspect::inspect_pixel(&plan, &capture, x, y, &args.out)?;
+        let candidates = inspect::draw_pixel(&plan, &capture, x, y, &args.out)?;
         eprintln!("wrote {}", args.out.display());
-        if view.candidates.candidates.is_empty() {
-            sayln!("pixel ({x}, {y}): no candidate");
-        }
-        for c in &view.candidates.candidates {
-            sayln!(
-                "pixel ({x}, {y}): column {:.3}, amplitude {:.1} DN, group {}, block {}",
-                c.column,
-                c.amplitude,
-                c.group.number(),
-                c.block
-            );
-        }
+        say_candidates(x, y, &candidates, matches!(plan, MethodPlan::Fsm(_)));
     } else if let Some(y) = args.row {
-        let group = if args.group == 2 {
-            Group::Two
-        } else {
-            Group::One
-        };
-        inspect::inspect_row(&plan, &capture, y, group, &args.out)?;
+        let group = args
+            .group
+            .map(|g| if g == 2 { Group::Two } else { Group::One });
+        inspect::draw_row(&plan, &capture, y, group, &args.out)?;
         eprintln!("wrote {}", args.out.display());
     }
     Ok(())
+}
+
+/// Prints a pixel's candidates, one a line (FSM: with the group and block each came from).
+fn say_candidates(x: u32, y: u32, candidates: &HostCandidates, fsm: bool) {
+    if candidates.candidates.is_empty() {
+        sayln!("pixel ({x}, {y}): no candidate");
+    }
+    for c in &candidates.candidates {
+        let origin = if fsm {
+            format!(", group {}, block {}", c.group.number(), c.block)
+        } else {
+            String::new()
+        };
+        sayln!(
+            "pixel ({x}, {y}): column {:.3}, amplitude {:.1} DN{origin}",
+            c.column,
+            c.amplitude
+        );
+    }
 }

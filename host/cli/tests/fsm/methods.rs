@@ -1,6 +1,6 @@
 //! `fsm plan --method` for every method the toolkit knows, on a projector that is not the
 //! paper's, and `fsm patterns` of each plan: dependent fields derived from the width, the
-//! images what each method shows, and the commands that take FSM plans only saying so.
+//! images what each method shows, `fsm inspect` of each, and the camera saying it takes FSM plans.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -182,21 +182,17 @@ fn patterns_of_every_method_show_what_the_method_projects() {
 
 #[test]
 fn commands_that_take_fsm_plans_say_a_baseline_plan_is_not_theirs() {
-    // `fsm inspect` draws FSM spectra and profiles; a line-scan plan is refused by name
-    // before the capture is opened.
+    // The camera decodes FSM plans: a line-scan plan is refused by name before any
+    // connection is tried.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     plan(d, "line-scan", &[]);
     let e = fails(&[
-        "inspect",
+        "upload",
         "--plan",
         s(&d.join("line-scan.toml")),
-        "--images",
-        s(d),
-        "--pixel",
-        "1,1",
-        "--out",
-        s(&d.join("pixel.png")),
+        "--device",
+        "tcp://127.0.0.1:9",
     ]);
     assert!(
         e.contains("line-scan.toml") && e.contains("line_scan plan"),
@@ -270,6 +266,59 @@ fn every_method_goes_plan_simulate_decode_scan() {
         );
         assert!(wrong <= 0.01, "{method}: {summary}");
         assert!(completeness >= 0.95, "{method}: {summary}");
+        // `fsm inspect` draws what the method's decoder sees, and names the same candidate.
+        let (x, y) = if method == "code-ensemble" {
+            (192, 144)
+        } else {
+            (64, 48)
+        };
+        let pixel = format!("{x},{y}");
+        let picture = d.join(format!("{method}-pixel.png"));
+        let said = ok(&[
+            "inspect",
+            "--plan",
+            s(&plan),
+            "--dump",
+            s(&sim.join("scan.dump")),
+            "--pixel",
+            &pixel,
+            "--out",
+            s(&picture),
+        ]);
+        assert!(
+            said.contains(&format!("pixel ({x}, {y}): column")),
+            "{method}: {said}"
+        );
+        assert!(fs::metadata(&picture).unwrap().len() > 1000, "{method}");
+        let picture = d.join(format!("{method}-row.png"));
+        ok(&[
+            "inspect",
+            "--plan",
+            s(&plan),
+            "--dump",
+            s(&sim.join("scan.dump")),
+            "--row",
+            &y.to_string(),
+            "--out",
+            s(&picture),
+        ]);
+        assert!(fs::metadata(&picture).unwrap().len() > 1000, "{method}");
+        if method != "bfsm" {
+            let e = fails(&[
+                "inspect",
+                "--plan",
+                s(&plan),
+                "--dump",
+                s(&sim.join("scan.dump")),
+                "--row",
+                "1",
+                "--group",
+                "2",
+                "--out",
+                s(&d.join("never.png")),
+            ]);
+            assert!(e.contains("no pattern groups"), "{method}: {e}");
+        }
         // Another method's plan does not decode this capture.
         let other = if method == "line-scan" {
             "bfsm"

@@ -13,6 +13,9 @@
 //! the spectrum ([`Decoder::spectrum`]). The numbers come from `fsm_core`'s decoder
 //! ([`Decoder::peaks`], [`Decoder::decode_pixel`]); this module only draws them (`plotters`,
 //! bitmap backend, PNG).
+//!
+//! The baselines (phase shift, Micro Phase Shifting, Code Ensemble, line scanning) have their
+//! own views in [`sequence`].
 
 use std::path::Path;
 
@@ -27,6 +30,9 @@ use crate::error::{Error, Result};
 use crate::image_files;
 use crate::map_picture::{register_font, FONT};
 use crate::outputs::StagedFile;
+use crate::plan_file::MethodPlan;
+
+pub mod sequence;
 
 /// One group's view of a pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -258,16 +264,8 @@ pub fn inspect_pixel(
     y: u32,
     out: &Path,
 ) -> Result<PixelView> {
-    if x >= capture.width() || y >= capture.height() {
-        return Err(Error::Usage(format!(
-            "pixel ({x}, {y}) is outside the {}x{} images of the {}",
-            capture.width(),
-            capture.height(),
-            capture.describe()
-        )));
-    }
-    let mut frames = vec![0u16; capture.row_len()];
-    capture.read_row(y, &mut frames)?;
+    check_pixel(capture, x, y)?;
+    let frames = temporal_row(capture, y)?;
     let view = pixel_view(
         plan,
         &frames,
@@ -280,6 +278,110 @@ pub fn inspect_pixel(
     Ok(view)
 }
 
+/// Plots pixel `(x, y)` of `capture` as `plan`'s method shows it ([`inspect_pixel`] for FSM,
+/// [`sequence::inspect_sequence_pixel`] for the others) into the PNG `out`; returns the
+/// pixel's candidates.
+pub fn draw_pixel(
+    plan: &MethodPlan,
+    capture: &Capture,
+    x: u32,
+    y: u32,
+    out: &Path,
+) -> Result<HostCandidates> {
+    Ok(match plan {
+        MethodPlan::Fsm(p) => inspect_pixel(p, capture, x, y, out)?.candidates,
+        _ => sequence::inspect_sequence_pixel(plan, capture, x, y, out)?.candidates,
+    })
+}
+
+/// Draws row `y` of `capture` as `plan`'s method shows it ([`inspect_row`] for FSM, of
+/// `group`, group 1 by default; [`sequence::inspect_sequence_row`] for the others, which have
+/// no groups) into the PNG `out`.
+pub fn draw_row(
+    plan: &MethodPlan,
+    capture: &Capture,
+    y: u32,
+    group: Option<Group>,
+    out: &Path,
+) -> Result<()> {
+    match (plan, group) {
+        (MethodPlan::Fsm(p), _) => {
+            inspect_row(p, capture, y, group.unwrap_or(Group::One), out)?;
+        }
+        (_, None) => {
+            sequence::inspect_sequence_row(plan, capture, y, out)?;
+        }
+        (_, Some(g)) => {
+            return Err(Error::Usage(format!(
+                "group {}: a {} plan has no pattern groups",
+                g.number(),
+                plan.name()
+            )))
+        }
+    }
+    Ok(())
+}
+
+/// The samples of camera row `y` (`frames[i·W + x]`).
+fn temporal_row(capture: &Capture, y: u32) -> Result<Vec<u16>> {
+    let mut frames = vec![0u16; capture.row_len()];
+    capture.read_row(y, &mut frames)?;
+    Ok(frames)
+}
+
+/// `"{what} — candidates: 412.25 (900 DN), …"` (or `none`): a pixel plot's title.
+fn candidates_title(what: &str, candidates: &HostCandidates) -> String {
+    let list: Vec<String> = candidates
+        .candidates
+        .iter()
+        .map(|c| format!("{:.2} ({:.0} DN)", c.column, c.amplitude))
+        .collect();
+    let list = if list.is_empty() {
+        "none".to_owned()
+    } else {
+        list.join(", ")
+    };
+    format!("{what} — candidates: {list}")
+}
+
+/// Paints the plotting area of a row map (camera pixel `x` across, column `c` down) with the
+/// colour of `value(x, c)` in `[0, 1]`.
+fn paint_row_map<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    area: &DrawingArea<
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    value: impl Fn(f64, f64) -> f64,
+) -> std::result::Result<(), String> {
+    let (xr, yr) = area.get_pixel_range();
+    let spec = area.as_coord_spec().clone();
+    for py in yr {
+        for px in xr.clone() {
+            let Some((x, c)) = spec.reverse_translate((px, py)) else {
+                continue;
+            };
+            let color = ViridisRGB.get_color_normalized(value(x, c).clamp(0.0, 1.0), 0.0, 1.0);
+            root.draw_pixel((px, py), &color)
+                .map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a pixel outside the capture's images.
+fn check_pixel(capture: &Capture, x: u32, y: u32) -> Result<()> {
+    if x >= capture.width() || y >= capture.height() {
+        return Err(Error::Usage(format!(
+            "pixel ({x}, {y}) is outside the {}x{} images of the {}",
+            capture.width(),
+            capture.height(),
+            capture.describe()
+        )));
+    }
+    Ok(())
+}
+
 /// Renders the c-domain map of row `y` of `capture` for `group` into the PNG `out`.
 pub fn inspect_row(
     plan: &ScanPlan,
@@ -288,8 +390,7 @@ pub fn inspect_row(
     group: Group,
     out: &Path,
 ) -> Result<RowMap> {
-    let mut frames = vec![0u16; capture.row_len()];
-    capture.read_row(y, &mut frames)?;
+    let frames = temporal_row(capture, y)?;
     let map = row_map(
         plan,
         &frames,
@@ -348,22 +449,7 @@ pub fn plot_pixel(plan: &ScanPlan, view: &PixelView, out: &Path) -> Result<()> {
     let panels_per_group = if efsm { 3 } else { 2 };
     let rows = panels_per_group * view.groups.len();
     let (width, height) = (1200u32, 60 + 330 * rows as u32);
-    let candidates: Vec<String> = view
-        .candidates
-        .candidates
-        .iter()
-        .map(|c| format!("{:.2} ({:.0} DN)", c.column, c.amplitude))
-        .collect();
-    let title = format!(
-        "pixel ({}, {}) — candidates: {}",
-        view.x,
-        view.y,
-        if candidates.is_empty() {
-            "none".to_owned()
-        } else {
-            candidates.join(", ")
-        }
-    );
+    let title = candidates_title(&format!("pixel ({}, {})", view.x, view.y), &view.candidates);
     render_png(out, (width, height), |root| {
         let e = |e: &dyn std::fmt::Display| e.to_string();
         let (top, body) = root.split_vertically(50);
@@ -599,28 +685,14 @@ pub fn plot_row_map(plan: &ScanPlan, map: &RowMap, out: &Path) -> Result<()> {
             .label_style((FONT, 14))
             .draw()
             .map_err(|x| e(&x))?;
-        let area = chart.plotting_area();
-        let (xr, yr) = area.get_pixel_range();
-        let spec = area.as_coord_spec().clone();
-        for py in yr {
-            for px in xr.clone() {
-                let Some((x, c)) = spec.reverse_translate((px, py)) else {
-                    continue;
-                };
-                let xi = (x.floor() as isize).clamp(0, map.width as isize - 1) as usize;
-                let k =
-                    ((c / bin_width).round() as isize).clamp(0, map.bins() as isize - 1) as usize;
-                let top = peaks[xi];
-                let v = if top > 0.0 {
-                    map.spectrum(xi)[k] / top
-                } else {
-                    0.0
-                };
-                let color = ViridisRGB.get_color_normalized(v.clamp(0.0, 1.0), 0.0, 1.0);
-                root.draw_pixel((px, py), &color).map_err(|x| e(&x))?;
+        paint_row_map(root, chart.plotting_area(), |x, c| {
+            let xi = (x.floor() as isize).clamp(0, map.width as isize - 1) as usize;
+            let k = ((c / bin_width).round() as isize).clamp(0, map.bins() as isize - 1) as usize;
+            match peaks[xi] {
+                top if top > 0.0 => (map.spectrum(xi)[k] / top) as f64,
+                _ => 0.0,
             }
-        }
-        Ok(())
+        })
     })
 }
 
