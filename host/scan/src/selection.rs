@@ -271,84 +271,81 @@ pub fn select(field: &CandidateField, params: &SelectionParams) -> Selection {
         || sweep(field, params, &reverse, Order::Reverse),
     );
     let (w, h) = (field.width, field.height);
-    let starts = &field.starts;
+    let row = w.max(1);
     // Rows in parallel from here on: a pixel's outcome depends on nothing another row writes.
+    // First the least cost per pixel, with what the rest needs of it: the labels are read once.
     let mut choice = vec![None; w * h];
+    let mut point = vec![[0.0f32; 3]; w * h];
+    let mut direct = vec![0.0f32; w * h];
+    let mut all = vec![0.0f32; w * h];
     choice
-        .par_chunks_mut(w.max(1))
+        .par_chunks_mut(row)
+        .zip(point.par_chunks_mut(row))
+        .zip(direct.par_chunks_mut(row))
+        .zip(all.par_chunks_mut(row))
         .enumerate()
-        .for_each(|(y, row)| {
-            for (x, c) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                let (start, end) = (starts[i] as usize, starts[i + 1] as usize);
-                // The least cost; ties go to the lower index (candidates come strongest first).
-                let mut best: Option<(usize, f32)> = None;
-                for l in start..end {
-                    let cost = ahead[l] + back[l];
-                    match best {
-                        Some((_, least)) if least <= cost => {}
-                        _ => best = Some((l - start, cost)),
-                    }
-                }
-                *c = best.map(|(l, _)| l as u16);
-            }
-        });
-    if params.drop_isolated {
-        choice = drop_isolated(field, &choice, 2.0 * params.epsilon_mm);
-    }
-    let mut direct = vec![0.0; w * h];
-    let mut indirect = vec![0.0; w * h];
-    direct
-        .par_chunks_mut(w.max(1))
-        .zip(indirect.par_chunks_mut(w.max(1)))
-        .enumerate()
-        .for_each(|(y, (direct, indirect))| {
+        .for_each(|(y, (((choice, point), direct), all))| {
             for x in 0..w {
                 let i = y * w + x;
-                let labels = &field.labels[starts[i] as usize..starts[i + 1] as usize];
-                let all: f32 = labels.iter().map(|l| l.amplitude).sum();
-                let chosen = choice[i].map_or(0.0, |c| labels[c as usize].amplitude);
-                direct[x] = chosen;
-                indirect[x] = all - chosen;
+                let start = field.starts[i] as usize;
+                let labels = &field.labels[start..field.starts[i + 1] as usize];
+                // The least cost; ties go to the lower index (candidates come strongest first).
+                let mut best: Option<(usize, f32)> = None;
+                for l in 0..labels.len() {
+                    let cost = ahead[start + l] + back[start + l];
+                    match best {
+                        Some((_, least)) if least <= cost => {}
+                        _ => best = Some((l, cost)),
+                    }
+                }
+                if let Some((l, _)) = best {
+                    choice[x] = Some(l as u16);
+                    point[x] = labels[l].point_mm;
+                    direct[x] = labels[l].amplitude;
+                }
+                all[x] = labels.iter().map(|l| l.amplitude).sum();
+            }
+        });
+    // Then a choice no chosen 8-neighbour lies within 2ε of is dropped, and the amplitudes.
+    let reach_mm = 2.0 * params.epsilon_mm;
+    let mut kept = vec![None; w * h];
+    let mut indirect = vec![0.0f32; w * h];
+    kept.par_chunks_mut(row)
+        .zip(direct.par_chunks_mut(row))
+        .zip(indirect.par_chunks_mut(row))
+        .enumerate()
+        .for_each(|(y, ((kept, direct), indirect))| {
+            for x in 0..w {
+                let i = y * w + x;
+                let mut c = choice[i];
+                if params.drop_isolated && c.is_some() {
+                    let mut chosen_neighbours = 0;
+                    let mut near = false;
+                    for ny in y.saturating_sub(1)..(y + 2).min(h) {
+                        for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                            let j = ny * w + nx;
+                            if j != i && choice[j].is_some() {
+                                chosen_neighbours += 1;
+                                near |= distance_mm(&point[i], &point[j]) <= reach_mm;
+                            }
+                        }
+                    }
+                    if chosen_neighbours > 0 && !near {
+                        c = None;
+                        direct[x] = 0.0;
+                    }
+                }
+                kept[x] = c;
+                indirect[x] = all[i] - direct[x];
             }
         });
     Selection {
         width: w,
         height: h,
-        choice,
+        choice: kept,
         direct,
         indirect,
     }
-}
-
-/// Clears every choice that has chosen 8-neighbours but none within `reach_mm` of it.
-fn drop_isolated(
-    field: &CandidateField,
-    choice: &[Option<u16>],
-    reach_mm: f32,
-) -> Vec<Option<u16>> {
-    let (w, h) = (field.width, field.height);
-    let point =
-        |i: usize| choice[i].map(|c| field.labels[field.starts[i] as usize + c as usize].point_mm);
-    let mut kept = choice.to_vec();
-    kept.par_chunks_mut(w.max(1))
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, kept) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                let Some(p) = point(i) else { continue };
-                let mut chosen_neighbours = 0;
-                let mut near = false;
-                for q in neighbours(i, w, h).flatten().filter_map(point) {
-                    chosen_neighbours += 1;
-                    near |= distance_mm(&p, &q) <= reach_mm;
-                }
-                if chosen_neighbours > 0 && !near {
-                    *kept = None;
-                }
-            }
-        });
-    kept
 }
 
 /// The 8 neighbours of pixel `i` in a `width × height` image, `None` off the image.
@@ -393,7 +390,7 @@ fn strongest(labels: &[Label]) -> f32 {
     labels.iter().map(|l| l.amplitude).fold(0.0f32, f32::max)
 }
 
-/// Candidates of a pixel whose best predecessor is found at once, one lane each.
+/// Candidates of a pixel in one [`Group`], one vector lane each.
 const LANES: usize = 4;
 
 /// The order a sweep visits pixels in.
@@ -408,109 +405,338 @@ enum Order {
 /// Rows of path costs a sweep keeps: the current one and two before (a knight's move).
 const ROWS_KEPT: usize = 3;
 
+/// Empty pixels on either side of a kept row, so that a step of up to two columns always lands
+/// in the row: no bounds test per direction.
+const PAD: usize = 2;
+
+/// Up to [`LANES`] candidates of one pixel, structure of arrays, so a candidate is a lane.
+#[derive(Clone, Copy, Default)]
+struct Group {
+    x: [f32; LANES],
+    y: [f32; LANES],
+    z: [f32; LANES],
+    /// The points again, per coordinate each candidate in [`LANES`] lanes: the AVX2 fold's
+    /// operands as they are, made once for the next pixels of all directions.
+    spread: [[f32; LANES * LANES]; 3],
+    /// `C(v, l)`; +∞ in unused lanes, so their path costs are +∞ (or NaN), which [`least`]
+    /// never takes from its second operand: a previous group can be used whole.
+    data: [f32; LANES],
+    /// Candidates in it, 1 to [`LANES`]; the other lanes repeat the first's point.
+    len: u32,
+    /// Its first candidate's index in the field.
+    label: u32,
+}
+
+/// One row as a sweep visits it: its pixels' groups and their path costs per direction.
+#[derive(Default)]
+struct Row {
+    /// Pixel `a` (the `a`-th visited) holds `groups[first[a + PAD]..first[a + PAD + 1]]`.
+    first: Vec<u32>,
+    groups: Vec<Group>,
+    /// `L_r` of group `g` and direction `d` at `g · directions + d`.
+    costs: Vec<[f32; LANES]>,
+}
+
+impl Row {
+    /// A row of `width` pixels without candidates.
+    fn empty(width: usize) -> Self {
+        Row {
+            first: vec![0; width + 2 * PAD + 1],
+            ..Row::default()
+        }
+    }
+
+    /// Fills the row with image row `y` in `order`.
+    fn fill(&mut self, field: &CandidateField, y: usize, order: Order, directions: usize) {
+        let w = field.width;
+        self.first.clear();
+        self.groups.clear();
+        self.first.extend([0; PAD]);
+        for a in 0..w {
+            let x = if order == Order::Raster { a } else { w - 1 - a };
+            let i = y * w + x;
+            let start = field.starts[i] as usize;
+            let here = &field.labels[start..field.starts[i + 1] as usize];
+            self.first.push(self.groups.len() as u32);
+            let strongest = strongest(here);
+            for (c, chunk) in here.chunks(LANES).enumerate() {
+                let lanes: [&Label; LANES] =
+                    std::array::from_fn(|k| chunk.get(k).unwrap_or(&chunk[0]));
+                let [x, y, z]: [[f32; LANES]; 3] =
+                    std::array::from_fn(|axis| std::array::from_fn(|k| lanes[k].point_mm[axis]));
+                let spread = |v: &[f32; LANES]| std::array::from_fn(|k| v[k / LANES]);
+                self.groups.push(Group {
+                    spread: [spread(&x), spread(&y), spread(&z)],
+                    x,
+                    y,
+                    z,
+                    data: std::array::from_fn(|k| {
+                        if k < chunk.len() {
+                            data_cost(lanes[k].amplitude, strongest)
+                        } else {
+                            f32::INFINITY
+                        }
+                    }),
+                    len: chunk.len() as u32,
+                    label: (start + c * LANES) as u32,
+                });
+            }
+        }
+        let end = self.groups.len() as u32;
+        self.first.extend([end; PAD + 1]);
+        self.costs
+            .resize(self.groups.len() * directions, [0.0; LANES]);
+    }
+}
+
 /// `Σ_r L_r` per candidate over `directions`, added in their order, in one sweep over the image
 /// in `order` (every direction's previous pixel must come earlier in it).
-///
-/// For each candidate `l` of a pixel, `min_{l'} (L_r(v − r, l') + S(l, l'))` runs over the
-/// previous pixel's candidates in their order, [`LANES`] candidates `l` at a time: each lane
-/// does the scalar operations of [`step_cost`] in the same order, so every `L_r` is the same,
-/// bit for bit, as one candidate and one direction at a time (the test oracle). A pixel's
-/// points are loaded once for all the sweep's directions.
 fn sweep(
     field: &CandidateField,
     params: &SelectionParams,
     directions: &[Step],
     order: Order,
 ) -> Vec<f32> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        return unsafe { avx2::sweep(field, params, directions, order) };
+    }
+    sweep_with(field, params, directions, order, |g| *g, fold)
+}
+
+/// `min_{l'} (L_r(v − r, l') + S(l, l'))` for a group's candidates `l`, one lane each, carried
+/// on from `best` over the previous candidates `l'` of `there`, whose path costs are
+/// `previous`, in their order: each lane does the scalar operations of [`step_cost`] in the
+/// same order as one candidate at a time (the test oracle).
+#[inline(always)]
+fn fold(
+    here: &Group,
+    there: &Group,
+    previous: &[f32; LANES],
+    mut best: [f32; LANES],
+    beta: f32,
+    epsilon: f32,
+) -> [f32; LANES] {
+    for (j, &cost) in previous.iter().enumerate() {
+        let (tx, ty, tz) = (there.x[j], there.y[j], there.z[j]);
+        for (k, best) in best.iter_mut().enumerate() {
+            let step = step_cost(
+                here.x[k] - tx,
+                here.y[k] - ty,
+                here.z[k] - tz,
+                beta,
+                epsilon,
+            );
+            *best = least(*best, cost + step);
+        }
+    }
+    best
+}
+
+/// [`fold`] with AVX2: two previous candidates a register.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    /// [`super::sweep_with`] for AVX2 and [`fold`].
+    #[target_feature(enable = "avx2")]
+    pub(super) fn sweep(
+        field: &CandidateField,
+        params: &SelectionParams,
+        directions: &[Step],
+        order: Order,
+    ) -> Vec<f32> {
+        sweep_with(
+            field,
+            params,
+            directions,
+            order,
+            Here::new,
+            |h, t, p, b, beta, e| fold(h, t, p, b, beta, e),
+        )
+    }
+
+    /// A group's points, each coordinate's lanes twice (for two previous candidates).
+    #[derive(Clone, Copy)]
+    pub(super) struct Here {
+        x: __m256,
+        y: __m256,
+        z: __m256,
+    }
+
+    impl Here {
+        #[inline(always)]
+        fn new(group: &Group) -> Self {
+            // SAFETY: `sweep`, the only caller, runs with AVX2.
+            unsafe {
+                let twice = |v: &[f32; LANES]| _mm256_broadcast_ps(&load(v));
+                Here {
+                    x: twice(&group.x),
+                    y: twice(&group.y),
+                    z: twice(&group.z),
+                }
+            }
+        }
+    }
+
+    /// [`super::fold`], the same operations per lane: lanes 0–3 step from previous candidate
+    /// `j`, lanes 4–7 from `j + 1`; each half is folded into `best` in turn.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn fold(
+        here: &Here,
+        there: &Group,
+        previous: &[f32; LANES],
+        best: [f32; LANES],
+        beta: f32,
+        epsilon: f32,
+    ) -> [f32; LANES] {
+        let (beta, epsilon, zero) = (
+            _mm256_set1_ps(beta),
+            _mm256_set1_ps(epsilon),
+            _mm256_setzero_ps(),
+        );
+        let mut best = load(&best);
+        for half in 0..2 {
+            let (ex, ey, ez) = (
+                _mm256_sub_ps(here.x, load8(&there.spread[0], half)),
+                _mm256_sub_ps(here.y, load8(&there.spread[1], half)),
+                _mm256_sub_ps(here.z, load8(&there.spread[2], half)),
+            );
+            let squared = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(ex, ex), _mm256_mul_ps(ey, ey)),
+                _mm256_mul_ps(ez, ez),
+            );
+            let beyond = _mm256_sub_ps(_mm256_sqrt_ps(squared), epsilon);
+            // `max(a, b)` is `a > b ? a : b`, as in `step_cost`.
+            let step = _mm256_mul_ps(beta, _mm256_max_ps(beyond, zero));
+            // `cost + step` a half at a time, the cost broadcast from memory: no shuffle.
+            // `least(a, b)` is `b < a ? b : a`, that is `min(b, a)`.
+            let j = 2 * half;
+            let moved = _mm_add_ps(_mm_set1_ps(previous[j]), _mm256_castps256_ps128(step));
+            best = _mm_min_ps(moved, best);
+            let high = _mm256_extractf128_ps::<1>(step);
+            let moved = _mm_add_ps(_mm_set1_ps(previous[j + 1]), high);
+            best = _mm_min_ps(moved, best);
+        }
+        store(best)
+    }
+
+    /// Half of a [`Group::spread`].
+    #[inline(always)]
+    fn load8(v: &[f32; LANES * LANES], half: usize) -> __m256 {
+        let v = &v[2 * LANES * half..][..2 * LANES];
+        // SAFETY: reads the eight floats of `v`; the callers run with AVX2.
+        unsafe { _mm256_loadu_ps(v.as_ptr()) }
+    }
+
+    #[inline(always)]
+    fn load(v: &[f32; LANES]) -> __m128 {
+        // SAFETY: reads the four floats of `v`; SSE is part of x86-64.
+        unsafe { _mm_loadu_ps(v.as_ptr()) }
+    }
+
+    #[inline(always)]
+    fn store(v: __m128) -> [f32; LANES] {
+        // SAFETY: four floats either way.
+        unsafe { std::mem::transmute::<__m128, [f32; LANES]>(v) }
+    }
+}
+
+/// [`sweep`] with a group's points prepared by `here` for `fold` (a version of [`fold`]).
+///
+/// A row's points are gathered once into [`Group`]s for all the sweep's directions.
+#[inline(always)]
+fn sweep_with<H>(
+    field: &CandidateField,
+    params: &SelectionParams,
+    directions: &[Step],
+    order: Order,
+    here: impl Fn(&Group) -> H,
+    fold: impl Fn(&H, &Group, &[f32; LANES], [f32; LANES], f32, f32) -> [f32; LANES],
+) -> Vec<f32> {
     let (w, h) = (field.width, field.height);
-    let (starts, labels) = (&field.starts, &field.labels);
-    let mut sum = vec![0.0f32; labels.len()];
+    let mut sum = vec![0.0f32; field.labels.len()];
     if directions.is_empty() || w == 0 || h == 0 {
         return sum;
     }
     let (beta, epsilon) = (params.beta_per_mm, params.epsilon_mm);
-    let row_start = |y: usize| starts[y * w] as usize;
-    let widest = (0..h)
-        .map(|y| row_start(y + 1) - row_start(y))
-        .max()
-        .unwrap_or(0);
-    // Path costs of the rows kept, per direction: row `y`'s candidates (numbered from its
-    // first) at `((y % ROWS_KEPT) · directions + d) · widest`.
-    let mut kept = vec![0.0f32; ROWS_KEPT * directions.len() * widest];
-    let slot = |y: usize, d: usize| (y % ROWS_KEPT * directions.len() + d) * widest;
-    for step in 0..h {
-        let y = if order == Order::Raster {
-            step
-        } else {
-            h - 1 - step
-        };
-        let first_here = row_start(y);
-        for across in 0..w {
-            let x = if order == Order::Raster {
-                across
+    // In the order's own frame (pixel `a` of row `s`, both counted as visited) every previous
+    // pixel is `(a − dx, s − dy)` with `dy` 0 to 2 and `dx` −2 to 2: where it is in `first`
+    // relative to `a`, and the rows back.
+    let back: Vec<(usize, usize)> = directions
+        .iter()
+        .map(|&(dx, dy)| {
+            let (dx, dy) = if order == Order::Raster {
+                (dx, dy)
             } else {
-                w - 1 - across
+                (-dx, -dy)
             };
-            let i = y * w + x;
-            let (vs, ve) = (starts[i] as usize, starts[i + 1] as usize);
-            if vs == ve {
-                continue;
-            }
-            let here = &labels[vs..ve];
-            let strongest = strongest(here);
-            for first in (0..here.len()).step_by(LANES) {
-                let n = (here.len() - first).min(LANES);
-                // Unused lanes repeat the first candidate; their results are not stored.
-                let lane = |k: usize| &here[first + if k < n { k } else { 0 }];
-                let [hx, hy, hz]: [[f32; LANES]; 3] =
-                    std::array::from_fn(|axis| std::array::from_fn(|k| lane(k).point_mm[axis]));
-                let data: [f32; LANES] =
-                    std::array::from_fn(|k| data_cost(lane(k).amplitude, strongest));
+            debug_assert!((0..ROWS_KEPT as i32).contains(&dy) && dx.unsigned_abs() as usize <= PAD);
+            ((PAD as i32 - dx) as usize, dy as usize)
+        })
+        .collect();
+    let nd = directions.len();
+    let empty = Row::empty(w);
+    let mut rows: [Row; ROWS_KEPT] = std::array::from_fn(|_| Row::default());
+    for s in 0..h {
+        let y = if order == Order::Raster { s } else { h - 1 - s };
+        let mut row = std::mem::take(&mut rows[s % ROWS_KEPT]);
+        row.fill(field, y, order, nd);
+        // The rows `dy` back, if any.
+        let back_rows: [Option<usize>; ROWS_KEPT] =
+            std::array::from_fn(|dy| (dy <= s).then(|| (s - dy) % ROWS_KEPT));
+        for a in 0..w {
+            let (gs, ge) = (row.first[a + PAD] as usize, row.first[a + PAD + 1] as usize);
+            for g in gs..ge {
+                let group = row.groups[g];
+                let prepared = here(&group);
                 let mut total = [0.0f32; LANES];
-                for (d, &(dx, dy)) in directions.iter().enumerate() {
-                    let (px, py) = (x as i32 - dx, y as i32 - dy);
-                    // The previous pixel's candidates in the field, and where their path costs
-                    // are kept.
-                    let (ps, pe, at) = if px < 0 || py < 0 || px >= w as i32 || py >= h as i32 {
-                        (0, 0, 0)
-                    } else {
-                        let (px, py) = (px as usize, py as usize);
-                        let p = py * w + px;
-                        let (ps, pe) = (starts[p] as usize, starts[p + 1] as usize);
-                        (ps, pe, slot(py, d) + ps - row_start(py))
+                for (d, &(offset, dy)) in back.iter().enumerate() {
+                    let before = match back_rows[dy] {
+                        _ if dy == 0 => &row,
+                        Some(r) => &rows[r],
+                        None => &empty,
                     };
+                    let p = a + offset;
+                    let (ps, pe) = (before.first[p] as usize, before.first[p + 1] as usize);
                     let path = if ps == pe {
                         // A path starts here: at the border or after a pixel without candidates.
-                        data
+                        group.data
                     } else {
-                        let previous = &kept[at..at + (pe - ps)];
-                        let floor = previous.iter().copied().fold(f32::INFINITY, least);
+                        let mut floor = f32::INFINITY;
                         let mut best = [f32::INFINITY; LANES];
-                        for (there, &cost) in labels[ps..pe].iter().zip(previous) {
-                            let [tx, ty, tz] = there.point_mm;
-                            for k in 0..LANES {
-                                let step =
-                                    step_cost(hx[k] - tx, hy[k] - ty, hz[k] - tz, beta, epsilon);
-                                best[k] = least(best[k], cost + step);
+                        for q in ps..pe {
+                            let previous = &before.costs[q * nd + d];
+                            for &cost in previous {
+                                floor = least(floor, cost);
                             }
+                            best =
+                                fold(&prepared, &before.groups[q], previous, best, beta, epsilon);
                         }
-                        std::array::from_fn(|k| data[k] + best[k] - floor)
+                        std::array::from_fn(|k| group.data[k] + best[k] - floor)
                     };
-                    let at = slot(y, d) + vs + first - first_here;
-                    // Element by element: a slice copy of at most four floats calls memcpy.
-                    #[allow(clippy::manual_memcpy)]
-                    for k in 0..n {
-                        kept[at + k] = path[k];
-                    }
+                    row.costs[g * nd + d] = path;
                     for k in 0..LANES {
                         total[k] += path[k];
                     }
                 }
-                for k in 0..n {
-                    sum[vs + first + k] = total[k];
+                let n = group.len as usize;
+                let at = group.label as usize;
+                if n == LANES {
+                    sum[at..at + LANES].copy_from_slice(&total);
+                } else {
+                    // Element by element: a slice copy of at most three floats calls memcpy.
+                    #[allow(clippy::manual_memcpy)]
+                    for k in 0..n {
+                        sum[at + k] = total[k];
+                    }
                 }
             }
         }
+        rows[s % ROWS_KEPT] = row;
     }
     sum
 }
@@ -660,18 +886,167 @@ mod tests {
                         *o += p;
                     }
                 }
-                let swept = sweep(&field, &params, &directions, order);
-                assert_eq!(swept.len(), oracle.len());
-                for (i, (a, b)) in swept.iter().zip(&oracle).enumerate() {
-                    assert_eq!(
-                        a.to_bits(),
-                        b.to_bits(),
-                        "{paths:?} {directions:?}, candidate {i}"
-                    );
-                    compared += 1;
+                // The dispatched sweep (AVX2 where the CPU has it) and the portable one.
+                let portable = sweep_with(&field, &params, &directions, order, |g| *g, fold);
+                for swept in [sweep(&field, &params, &directions, order), portable] {
+                    assert_eq!(swept.len(), oracle.len());
+                    for (i, (a, b)) in swept.iter().zip(&oracle).enumerate() {
+                        assert_eq!(
+                            a.to_bits(),
+                            b.to_bits(),
+                            "{paths:?} {directions:?}, candidate {i}"
+                        );
+                        compared += 1;
+                    }
                 }
             }
         }
-        assert_eq!(compared, 4 * data.len(), "two path sets, two sweeps each");
+        assert_eq!(
+            compared,
+            8 * data.len(),
+            "two path sets, two sweeps each, two versions"
+        );
+    }
+
+    /// [`select`] written out plainly on the oracle's paths: the sums, the least, the isolated
+    /// choices dropped, the amplitudes.
+    fn select_plainly(field: &CandidateField, params: &SelectionParams) -> Selection {
+        let (w, h) = (field.width, field.height);
+        let data: Vec<f32> = (0..w * h)
+            .flat_map(|i| {
+                let labels = field.labels(i % w, i / w);
+                let strongest = strongest(labels);
+                labels
+                    .iter()
+                    .map(move |l| data_cost(l.amplitude, strongest))
+            })
+            .collect();
+        let (raster, reverse) = params.paths.sweeps();
+        let sum = |directions: &[Step]| {
+            let mut sum = vec![0.0f32; data.len()];
+            for &direction in directions {
+                let path = aggregate_one_at_a_time(field, &data, params, direction);
+                for (s, p) in sum.iter_mut().zip(path) {
+                    *s += p;
+                }
+            }
+            sum
+        };
+        let (ahead, back) = (sum(&raster), sum(&reverse));
+        let mut choice = vec![None; w * h];
+        for (i, c) in choice.iter_mut().enumerate() {
+            let start = field.starts[i] as usize;
+            let mut best: Option<(u16, f32)> = None;
+            for l in 0..field.labels(i % w, i / w).len() {
+                let cost = ahead[start + l] + back[start + l];
+                if best.is_none_or(|(_, least)| cost < least) {
+                    best = Some((l as u16, cost));
+                }
+            }
+            *c = best.map(|(l, _)| l);
+        }
+        let point = |x: usize, y: usize, choice: &[Option<u16>]| {
+            choice[y * w + x].map(|c| field.labels(x, y)[c as usize].point_mm)
+        };
+        let mut kept = choice.clone();
+        if params.drop_isolated {
+            for y in 0..h {
+                for x in 0..w {
+                    let Some(p) = point(x, y, &choice) else {
+                        continue;
+                    };
+                    let mut chosen = 0;
+                    let mut near = false;
+                    for ny in y.saturating_sub(1)..(y + 2).min(h) {
+                        for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                            if (nx, ny) == (x, y) {
+                                continue;
+                            }
+                            if let Some(q) = point(nx, ny, &choice) {
+                                chosen += 1;
+                                near |= distance_mm(&p, &q) <= 2.0 * params.epsilon_mm;
+                            }
+                        }
+                    }
+                    if chosen > 0 && !near {
+                        kept[y * w + x] = None;
+                    }
+                }
+            }
+        }
+        let amplitudes = |i: usize| field.labels(i % w, i / w).iter().map(|l| l.amplitude);
+        let direct: Vec<f32> = (0..w * h)
+            .map(|i| kept[i].map_or(0.0, |c| amplitudes(i).nth(c as usize).unwrap()))
+            .collect();
+        let indirect = (0..w * h)
+            .map(|i| amplitudes(i).sum::<f32>() - direct[i])
+            .collect();
+        Selection {
+            width: w,
+            height: h,
+            choice: kept,
+            direct,
+            indirect,
+        }
+    }
+
+    #[test]
+    fn the_selection_is_the_plain_one_bit_for_bit() {
+        // 0 to 6 candidates per pixel at random points, some within ε of their neighbours'.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let (w, h) = (31, 19);
+        let mut counts = Vec::new();
+        let mut labels = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let n = (next() % 7) as u32;
+                counts.push(n);
+                for _ in 0..n {
+                    let r = next();
+                    let on_surface = r & 3 != 0;
+                    let jitter = |shift: u32| (r >> shift & 0xff) as f32 / 255.0;
+                    let point_mm = if on_surface {
+                        [
+                            x as f32 * 0.5 + 0.2 * jitter(8),
+                            y as f32 * 0.5 + 0.2 * jitter(16),
+                            500.0 + 0.05 * x as f32 + 0.5 * jitter(24),
+                        ]
+                    } else {
+                        [
+                            40.0 * jitter(8) - 10.0,
+                            40.0 * jitter(16) - 10.0,
+                            450.0 + 100.0 * jitter(24),
+                        ]
+                    };
+                    labels.push(Label {
+                        point_mm,
+                        amplitude: 1.0 + (r >> 32 & 0xff) as f32,
+                        column: 0.0,
+                    });
+                }
+            }
+        }
+        let field = CandidateField::from_counts(w, h, &counts, labels);
+        for paths in [Paths::Eight, Paths::Sixteen] {
+            for drop_isolated in [false, true] {
+                let params = SelectionParams {
+                    paths,
+                    drop_isolated,
+                    ..SelectionParams::for_footprint(0.5)
+                };
+                let (got, plain) = (select(&field, &params), select_plainly(&field, &params));
+                assert_eq!(got.choice, plain.choice, "{paths:?} {drop_isolated}");
+                let bits = |v: &[f32]| v.iter().map(|a| a.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&got.direct), bits(&plain.direct));
+                assert_eq!(bits(&got.indirect), bits(&plain.indirect));
+                assert!(got.choice.iter().any(Option::is_some));
+            }
+        }
     }
 }
