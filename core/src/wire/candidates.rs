@@ -176,9 +176,9 @@ pub fn encode_record<const K: usize>(
     let (head, mut rest) = out.split_at_mut(8);
     head[..4].copy_from_slice(&row.to_le_bytes());
     head[4..].copy_from_slice(&((len - RECORD_OVERHEAD) as u32).to_le_bytes());
-    // `len` counted every pixel's bytes: each goes in with one fixed-size copy (the camera
-    // writes a row's candidates in about 300 Cortex-A9 instructions a pixel with one check
-    // per field).
+    // `len` counted every pixel's bytes: each pixel and candidate goes in with one
+    // fixed-size copy, not a range check per field (the camera's loop counts every
+    // instruction here: `firmware/README.md`).
     for p in pixels {
         let (bytes, tail) = rest.split_at_mut(PIXEL_LEN);
         bytes.copy_from_slice(&pixel_bytes(p));

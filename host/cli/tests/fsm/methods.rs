@@ -1,6 +1,7 @@
 //! `fsm plan --method` for every method the toolkit knows, on a projector that is not the
 //! paper's, and `fsm patterns` of each plan: dependent fields derived from the width, the
-//! images what each method shows, `fsm inspect` of each, and the camera saying it takes FSM plans.
+//! images what each method shows, `fsm inspect` of each, and the camera saying it takes FSM
+//! plans.
 
 use std::fs;
 use std::path::{Path, PathBuf};
