@@ -321,13 +321,10 @@ pub fn select(field: &CandidateField, params: &SelectionParams) -> Selection {
                 if params.drop_isolated && c.is_some() {
                     let mut chosen_neighbours = 0;
                     let mut near = false;
-                    for ny in y.saturating_sub(1)..(y + 2).min(h) {
-                        for nx in x.saturating_sub(1)..(x + 2).min(w) {
-                            let j = ny * w + nx;
-                            if j != i && choice[j].is_some() {
-                                chosen_neighbours += 1;
-                                near |= distance_mm(&point[i], &point[j]) <= reach_mm;
-                            }
+                    for j in neighbours(i, w, h).flatten() {
+                        if choice[j].is_some() {
+                            chosen_neighbours += 1;
+                            near |= distance_mm(&point[i], &point[j]) <= reach_mm;
                         }
                     }
                     if chosen_neighbours > 0 && !near {
@@ -771,6 +768,20 @@ pub(crate) fn distance_mm(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 mod tests {
     use super::*;
 
+    /// `C(v, l)` of every candidate, in the field's order.
+    fn data_costs(field: &CandidateField) -> Vec<f32> {
+        let w = field.width;
+        (0..w * field.height)
+            .flat_map(|i| {
+                let labels = field.labels(i % w, i / w);
+                let strongest = strongest(labels);
+                labels
+                    .iter()
+                    .map(move |l| data_cost(l.amplitude, strongest))
+            })
+            .collect()
+    }
+
     /// `L_r` one candidate at a time, written as eq. 11 reads: the oracle of [`sweep`].
     fn aggregate_one_at_a_time(
         field: &CandidateField,
@@ -864,15 +875,7 @@ mod tests {
             }
         }
         let field = CandidateField::from_counts(w, h, &counts, labels);
-        let data: Vec<f32> = (0..w * h)
-            .flat_map(|i| {
-                let labels = field.labels(i % w, i / w);
-                let strongest = strongest(labels);
-                labels
-                    .iter()
-                    .map(move |l| data_cost(l.amplitude, strongest))
-            })
-            .collect();
+        let data = data_costs(&field);
         let params = SelectionParams::for_footprint(0.5);
         let mut compared = 0;
         for paths in [Paths::Eight, Paths::Sixteen] {
@@ -912,15 +915,7 @@ mod tests {
     /// choices dropped, the amplitudes.
     fn select_plainly(field: &CandidateField, params: &SelectionParams) -> Selection {
         let (w, h) = (field.width, field.height);
-        let data: Vec<f32> = (0..w * h)
-            .flat_map(|i| {
-                let labels = field.labels(i % w, i / w);
-                let strongest = strongest(labels);
-                labels
-                    .iter()
-                    .map(move |l| data_cost(l.amplitude, strongest))
-            })
-            .collect();
+        let data = data_costs(field);
         let (raster, reverse) = params.paths.sweeps();
         let sum = |directions: &[Step]| {
             let mut sum = vec![0.0f32; data.len()];
