@@ -256,31 +256,8 @@ pub fn row_map(
     })
 }
 
-/// Plots pixel `(x, y)` of `capture` into the PNG `out`; returns what was plotted.
-pub fn inspect_pixel(
-    plan: &ScanPlan,
-    capture: &Capture,
-    x: u32,
-    y: u32,
-    out: &Path,
-) -> Result<PixelView> {
-    check_pixel(capture, x, y)?;
-    let frames = temporal_row(capture, y)?;
-    let view = pixel_view(
-        plan,
-        &frames,
-        capture.width() as usize,
-        capture.bit_depth(),
-        x,
-        y,
-    )?;
-    plot_pixel(plan, &view, out)?;
-    Ok(view)
-}
-
-/// Plots pixel `(x, y)` of `capture` as `plan`'s method shows it ([`inspect_pixel`] for FSM,
-/// [`sequence::inspect_sequence_pixel`] for the others) into the PNG `out`; returns the
-/// pixel's candidates.
+/// Plots pixel `(x, y)` of `capture` as `plan`'s method shows it into the PNG `out` (FSM:
+/// [`pixel_view`]; the others: [`sequence::sequence_view`]); returns the pixel's candidates.
 pub fn draw_pixel(
     plan: &MethodPlan,
     capture: &Capture,
@@ -288,15 +265,22 @@ pub fn draw_pixel(
     y: u32,
     out: &Path,
 ) -> Result<HostCandidates> {
-    Ok(match plan {
-        MethodPlan::Fsm(p) => inspect_pixel(p, capture, x, y, out)?.candidates,
-        _ => sequence::inspect_sequence_pixel(plan, capture, x, y, out)?.candidates,
-    })
+    check_pixel(capture, x, y)?;
+    let frames = temporal_row(capture, y)?;
+    let (width, bit_depth) = (capture.width() as usize, capture.bit_depth());
+    if let MethodPlan::Fsm(p) = plan {
+        let view = pixel_view(p, &frames, width, bit_depth, x, y)?;
+        plot_pixel(p, &view, out)?;
+        return Ok(view.candidates);
+    }
+    let view = sequence::sequence_view(plan, &frames, width, bit_depth, x, y)?;
+    sequence::plot_sequence(plan, &view, out)?;
+    Ok(view.candidates)
 }
 
-/// Draws row `y` of `capture` as `plan`'s method shows it ([`inspect_row`] for FSM, of
-/// `group`, group 1 by default; [`sequence::inspect_sequence_row`] for the others, which have
-/// no groups) into the PNG `out`.
+/// Draws row `y` of `capture` as `plan`'s method shows it into the PNG `out` (FSM: the
+/// [`row_map`] of `group`, group 1 by default; the others, which have no groups: every pixel's
+/// candidates, [`sequence::plot_sequence_row`]).
 pub fn draw_row(
     plan: &MethodPlan,
     capture: &Capture,
@@ -304,22 +288,21 @@ pub fn draw_row(
     group: Option<Group>,
     out: &Path,
 ) -> Result<()> {
-    match (plan, group) {
-        (MethodPlan::Fsm(p), _) => {
-            inspect_row(p, capture, y, group.unwrap_or(Group::One), out)?;
-        }
-        (_, None) => {
-            sequence::inspect_sequence_row(plan, capture, y, out)?;
-        }
-        (_, Some(g)) => {
-            return Err(Error::Usage(format!(
-                "group {}: a {} plan has no pattern groups",
-                g.number(),
-                plan.name()
-            )))
-        }
+    if let (false, Some(g)) = (matches!(plan, MethodPlan::Fsm(_)), group) {
+        return Err(Error::Usage(format!(
+            "group {}: a {} plan has no pattern groups",
+            g.number(),
+            plan.name()
+        )));
     }
-    Ok(())
+    let frames = temporal_row(capture, y)?;
+    let (width, bit_depth) = (capture.width() as usize, capture.bit_depth());
+    if let MethodPlan::Fsm(p) = plan {
+        let map = row_map(p, &frames, width, bit_depth, y, group.unwrap_or(Group::One))?;
+        return plot_row_map(p, &map, out);
+    }
+    let pixels = sequence::row_candidates(plan, &frames, width, bit_depth, y)?;
+    sequence::plot_sequence_row(plan, y, &frames, width, &pixels, out)
 }
 
 /// The samples of camera row `y` (`frames[i·W + x]`).
@@ -380,27 +363,6 @@ fn check_pixel(capture: &Capture, x: u32, y: u32) -> Result<()> {
         )));
     }
     Ok(())
-}
-
-/// Renders the c-domain map of row `y` of `capture` for `group` into the PNG `out`.
-pub fn inspect_row(
-    plan: &ScanPlan,
-    capture: &Capture,
-    y: u32,
-    group: Group,
-    out: &Path,
-) -> Result<RowMap> {
-    let frames = temporal_row(capture, y)?;
-    let map = row_map(
-        plan,
-        &frames,
-        capture.width() as usize,
-        capture.bit_depth(),
-        y,
-        group,
-    )?;
-    plot_row_map(plan, &map, out)?;
-    Ok(map)
 }
 
 fn draw_error(out: &Path) -> impl Fn(String) -> Error + '_ {

@@ -18,9 +18,8 @@ use std::path::Path;
 use fsm_core::Row;
 use plotters::prelude::*;
 
-use super::{candidates_title, check_pixel, paint_row_map, render_png, temporal_row};
+use super::{candidates_title, paint_row_map, render_png};
 use crate::candidate_file::HostCandidates;
-use crate::capture::Capture;
 use crate::decode::RowDecoder;
 use crate::error::{Error, Result};
 use crate::map_picture::FONT;
@@ -66,24 +65,23 @@ pub struct SequenceView {
     pub candidates: HostCandidates,
 }
 
-/// A baseline's decoder; an FSM plan has its own views ([`super::pixel_view`]).
-fn baseline_decoder<'t>(plan: &MethodPlan, tables: &'t mut Vec<f32>) -> Result<RowDecoder<'t>> {
-    if let MethodPlan::Fsm(_) = plan {
-        return Err(Error::Usage(
-            "an FSM plan's views are its spectra and profiles (inspect::pixel_view)".into(),
-        ));
-    }
-    RowDecoder::new(plan, tables)
-}
-
-/// Decodes the pixels of a temporal row (`frames[i·W + x]`).
-fn decode(
-    decoder: &RowDecoder<'_>,
+/// The candidates of every pixel of a temporal row (`frames[i·W + x]`) scanned with the
+/// baseline `plan`: the same decoder as `fsm decode`. An FSM plan has its own views
+/// ([`super::pixel_view`], [`super::row_map`]).
+pub fn row_candidates(
+    plan: &MethodPlan,
     frames: &[u16],
     width: usize,
     bit_depth: u8,
     y: u32,
 ) -> Result<Vec<HostCandidates>> {
+    if let MethodPlan::Fsm(_) = plan {
+        return Err(Error::Usage(
+            "an FSM plan's views are its spectra and profiles (inspect::pixel_view)".into(),
+        ));
+    }
+    let mut tables = Vec::new();
+    let decoder = RowDecoder::new(plan, &mut tables)?;
     let row = Row {
         frames,
         width,
@@ -107,12 +105,10 @@ pub fn sequence_view(
     x: u32,
     y: u32,
 ) -> Result<SequenceView> {
-    let mut tables = Vec::new();
-    let decoder = baseline_decoder(plan, &mut tables)?;
     let count = plan.frame_count();
     let samples: Vec<u16> = (0..count).map(|i| frames[i * width + x as usize]).collect();
     // The decoders are per pixel: the pixel alone decodes as it does in its row.
-    let candidates = decode(&decoder, &samples, 1, bit_depth, y)?.remove(0);
+    let candidates = row_candidates(plan, &samples, 1, bit_depth, y)?.remove(0);
     let panels = panels(plan, &samples, &candidates);
     Ok(SequenceView {
         x,
@@ -266,28 +262,6 @@ fn panels(plan: &MethodPlan, samples: &[u16], candidates: &HostCandidates) -> Ve
     }
 }
 
-/// Plots pixel `(x, y)` of `capture`, scanned with the baseline `plan`, into the PNG `out`.
-pub fn inspect_sequence_pixel(
-    plan: &MethodPlan,
-    capture: &Capture,
-    x: u32,
-    y: u32,
-    out: &Path,
-) -> Result<SequenceView> {
-    check_pixel(capture, x, y)?;
-    let frames = temporal_row(capture, y)?;
-    let view = sequence_view(
-        plan,
-        &frames,
-        capture.width() as usize,
-        capture.bit_depth(),
-        x,
-        y,
-    )?;
-    plot_sequence(plan, &view, out)?;
-    Ok(view)
-}
-
 /// Draws a baseline pixel's view.
 pub fn plot_sequence(plan: &MethodPlan, view: &SequenceView, out: &Path) -> Result<()> {
     let rows = view.panels.len().max(1);
@@ -372,23 +346,6 @@ pub fn plot_sequence(plan: &MethodPlan, view: &SequenceView, out: &Path) -> Resu
         }
         Ok(())
     })
-}
-
-/// The candidates of every pixel of row `y` of `capture`, scanned with the baseline `plan`,
-/// drawn against projector column into the PNG `out`; returns them.
-pub fn inspect_sequence_row(
-    plan: &MethodPlan,
-    capture: &Capture,
-    y: u32,
-    out: &Path,
-) -> Result<Vec<HostCandidates>> {
-    let frames = temporal_row(capture, y)?;
-    let width = capture.width() as usize;
-    let mut tables = Vec::new();
-    let decoder = baseline_decoder(plan, &mut tables)?;
-    let pixels = decode(&decoder, &frames, width, capture.bit_depth(), y)?;
-    plot_sequence_row(plan, y, &frames, width, &pixels, out)?;
-    Ok(pixels)
 }
 
 /// Draws a row's candidates (the strongest of each pixel red, the others orange) over, for
