@@ -63,6 +63,13 @@ pub struct BoardError {
     pub kind: BoardErrorKind,
 }
 
+/// The host's commands report it as it is (it names the file and the key).
+impl From<BoardError> for fsm_io::Error {
+    fn from(e: BoardError) -> Self {
+        fsm_io::Error::Usage(e.to_string())
+    }
+}
+
 /// The kinds of [`BoardError`].
 #[derive(Debug)]
 pub enum BoardErrorKind {

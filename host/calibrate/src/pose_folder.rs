@@ -131,9 +131,9 @@ pub struct ObservedPoses {
 }
 
 /// Reads every pose folder of `dirs` ([`load_pose`]) and finds `board`'s corners in its white
-/// frame. Refuses folders of another image size than the first's, and folders where the
-/// corners are not found, naming the folder. `seen(dir, corners, decoded_share)` is told about
-/// each pose.
+/// frame. Refuses fewer folders than a calibration needs before any work, folders of another
+/// image size than the first's, and folders where the corners are not found, naming the
+/// folder. `seen(dir, corners, decoded_share)` is told about each pose.
 pub fn observe_poses(
     dirs: &[std::path::PathBuf],
     plan: &ScanPlan,
@@ -142,6 +142,13 @@ pub fn observe_poses(
     board: &crate::board::Checkerboard,
     mut seen: impl FnMut(&Path, usize, f64),
 ) -> Result<ObservedPoses> {
+    if dirs.len() < crate::zhang::MIN_POSES {
+        return Err(Error::Usage(format!(
+            "{} pose folders given; at least {} are needed (tilted in different directions)",
+            dirs.len(),
+            crate::zhang::MIN_POSES
+        )));
+    }
     let mut observed = ObservedPoses {
         observations: Vec::with_capacity(dirs.len()),
         whites: Vec::with_capacity(dirs.len()),
@@ -179,4 +186,31 @@ pub fn observe_poses(
         observed.whites.push(pose.white);
     }
     Ok(observed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn too_few_poses_are_refused_before_any_folder_is_read() {
+        let board = crate::board::Checkerboard {
+            inner_columns: 9,
+            inner_rows: 6,
+            square_mm: 20.0,
+        };
+        let dirs = ["no-such-pose-1", "no-such-pose-2"].map(std::path::PathBuf::from);
+        let plan = ScanPlan::paper_bfsm();
+        let options = DecodeOptions::default();
+        let mut seen = 0;
+        let e = observe_poses(&dirs, &plan, None, &options, &board, |_, _, _| seen += 1)
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(
+            e.contains("2 pose folders") && e.contains("at least 3"),
+            "{e}"
+        );
+        assert_eq!(seen, 0);
+    }
 }

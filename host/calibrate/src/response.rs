@@ -102,7 +102,26 @@ pub struct ResponseReport<'a> {
     pub estimate: &'a ResponseEstimate,
 }
 
-impl ResponseReport<'_> {
+impl<'a> ResponseReport<'a> {
+    /// The report of `estimate` of the captures in `images`, `chosen` written to
+    /// `response_file` and stored in `calibration_file` (where given).
+    pub fn new(
+        images: &Path,
+        estimate: &'a ResponseEstimate,
+        chosen: &ChosenResponse,
+        response_file: Option<&Path>,
+        calibration_file: Option<&Path>,
+    ) -> Self {
+        ResponseReport {
+            images: images.display().to_string(),
+            bit_depth: estimate.bit_depth(),
+            model: if chosen.is_gamma { "gamma" } else { "table" },
+            response_file: response_file.map(|p| p.display().to_string()),
+            calibration_file: calibration_file.map(|p| p.display().to_string()),
+            estimate,
+        }
+    }
+
     /// Writes the report to `path` as JSON, whole or not at all.
     pub fn write(&self, path: &Path) -> Result<()> {
         let json = serde_json::to_string_pretty(self).expect("the report serialises");
@@ -113,15 +132,15 @@ impl ResponseReport<'_> {
 /// Replaces the `[projector_response]` section of the calibration file `path` (rewritten whole
 /// or not at all).
 pub fn store_in_calibration(path: &Path, response: &ProjectorResponse) -> Result<()> {
-    let mut file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
+    let mut file = CalibrationFile::read(path)?;
     file.projector_response = Some(response.into());
-    file.write(path).map_err(|e| Error::Usage(e.to_string()))
+    Ok(file.write(path)?)
 }
 
 /// The projector response stored in the calibration file `path` (`fsm patterns
 /// --calibration`); an error names the file if it has none.
 pub fn response_from_calibration(path: &Path) -> Result<ProjectorResponse> {
-    let file = CalibrationFile::read(path).map_err(|e| Error::Usage(e.to_string()))?;
+    let file = CalibrationFile::read(path)?;
     let invalid = |message: String| Error::ProjectorResponse {
         path: path.to_path_buf(),
         message,

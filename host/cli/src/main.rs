@@ -5,41 +5,26 @@
 // and `[section]` there are words, not HTML or links.
 #![allow(rustdoc::invalid_html_tags, rustdoc::broken_intra_doc_links)]
 
-/// `print!` to standard output, through [`write_stdout`]: a reader that went away ends the run
-/// quietly instead of a panic.
+/// `print!` to standard output, through [`fsm_io::outputs::write_stdout`]: a reader that went
+/// away ends the run quietly instead of a panic.
 macro_rules! say {
     ($($arg:tt)*) => {
-        $crate::write_stdout(format_args!($($arg)*))
+        fsm_io::outputs::write_stdout(format_args!($($arg)*))
     };
 }
 
-/// `println!` to standard output, through [`write_stdout`].
+/// `println!` to standard output, through [`fsm_io::outputs::write_stdout`].
 macro_rules! sayln {
     ($($arg:tt)*) => {
-        $crate::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+        fsm_io::outputs::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
     };
 }
 
 mod commands;
 
-use std::io::Write;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-
-/// Writes to standard output. When the reader has closed it (`fsm camera info | head -1`), the
-/// run ends quietly as a Unix tool's does on SIGPIPE, with exit status 141 (128 + 13), after
-/// removing any output it had not committed; another write error ends it with status 1.
-fn write_stdout(text: std::fmt::Arguments) {
-    let mut out = std::io::stdout().lock();
-    if let Err(e) = out.write_fmt(text).and_then(|()| out.flush()) {
-        if e.kind() == std::io::ErrorKind::BrokenPipe {
-            fsm_io::outputs::exit_removing_unfinished("a closed standard output", 141, false);
-        }
-        eprintln!("fsm: error: writing to standard output: {e}");
-        std::process::exit(1);
-    }
-}
 
 /// Structured-light scanning through interreflections with the Frequency Shift Method.
 ///

@@ -50,3 +50,18 @@ impl fmt::Display for ModelError {
 }
 
 impl std::error::Error for ModelError {}
+
+/// The host's commands report a calibration file's error as it is (it names the file and the
+/// key).
+impl From<crate::file::CalibrationFileError> for fsm_io::Error {
+    fn from(e: crate::file::CalibrationFileError) -> Self {
+        fsm_io::Error::Usage(e.to_string())
+    }
+}
+
+/// … and another tool's file's (it names the file and the key).
+impl From<crate::opencv::OpenCvError> for fsm_io::Error {
+    fn from(e: crate::opencv::OpenCvError) -> Self {
+        fsm_io::Error::Usage(e.to_string())
+    }
+}

@@ -465,6 +465,20 @@ impl Calibration {
         FileV1::of(self).checksum()
     }
 
+    /// The calibration in a line, as `fsm calibrate import` reports it: the devices' sizes, the
+    /// baseline and the file's checksum.
+    pub fn summary(&self) -> String {
+        format!(
+            "camera {}x{}, projector {} columns x {} rows, baseline {:.3} mm, checksum {:08x}",
+            self.camera.width_px(),
+            self.camera.height_px(),
+            self.projector.width_px(),
+            self.projector.height_px(),
+            self.pose.baseline_mm(),
+            self.checksum()
+        )
+    }
+
     /// The calibration as the text of a version-1 file.
     pub fn to_toml(&self) -> String {
         let body = toml::to_string(&FileV1::of(self))

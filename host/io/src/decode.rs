@@ -138,6 +138,28 @@ impl DecodeSummary {
         )
     }
 
+    /// The decode of `source` as `fsm decode` reports it: size, time and throughput, then
+    /// [`Self::counts`] and [`Self::skipped_lines`].
+    pub fn report(&self, source: &str) -> String {
+        format!(
+            "decoded {source} ({}x{}) in {:.2} s: {:.3} Mpx/s\n  {}{}",
+            self.width,
+            self.height,
+            self.seconds,
+            self.megapixels_per_second(),
+            self.counts(),
+            self.skipped_lines()
+        )
+    }
+
+    /// [`Self::skipped`] as lines to append to a report, each indented by two spaces; empty
+    /// when nothing was skipped.
+    pub fn skipped_lines(&self) -> String {
+        (self.skipped()).map_or(String::new(), |s| {
+            format!("\n  {}", s.replace('\n', "\n  "))
+        })
+    }
+
     /// What a decode with [`BadRows::Skip`] skipped, one line per bad record after the
     /// count and the rows (`3, 7-9, 12`); `None` when nothing was skipped.
     pub fn skipped(&self) -> Option<String> {
@@ -555,4 +577,40 @@ fn decode_into(
         plan.patterns().projector_columns(),
     )?;
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_report_lists_what_was_skipped_under_the_counts() {
+        let mut summary = DecodeSummary {
+            width: 4,
+            height: 10,
+            seconds: 2.0,
+            ..DecodeSummary::default()
+        };
+        let clean = summary.report("dump scan.dump");
+        assert!(clean.starts_with("decoded dump scan.dump (4x10) in 2.00 s: 0.000 Mpx/s\n  "));
+        assert_eq!(
+            (clean.lines().count(), summary.skipped_lines()),
+            (2, String::new())
+        );
+        summary.rows_without_data = vec![3, 4, 5, 9];
+        summary.bad_records = vec![BadRecord {
+            record: Some(3),
+            row_hint: Some(3),
+            error: "record 3: CRC".into(),
+        }];
+        let report = summary.report("dump scan.dump");
+        let lines: Vec<&str> = report.lines().skip(2).collect();
+        assert_eq!(
+            lines,
+            [
+                "  skipped 1 bad record(s); 4 row(s) without data, no point: 3-5, 9",
+                "    record 3: CRC"
+            ]
+        );
+    }
 }

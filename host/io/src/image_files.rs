@@ -21,6 +21,15 @@ pub enum ImageFormat {
 }
 
 impl ImageFormat {
+    /// TIFF if `tiff`, else PNG (the commands' `--tiff`).
+    pub fn png_or_tiff(tiff: bool) -> Self {
+        if tiff {
+            ImageFormat::Tiff
+        } else {
+            ImageFormat::Png
+        }
+    }
+
     /// The format a file extension names (`png`, `tif`, `tiff`; any case).
     pub fn from_extension(ext: &str) -> Option<Self> {
         match ext.to_ascii_lowercase().as_str() {

@@ -116,6 +116,21 @@ pub fn exit_removing_unfinished(cause: &str, code: i32, say_stopped: bool) -> ! 
     std::process::exit(code)
 }
 
+/// Writes `text` to standard output (`fsm`'s `say!`). When the reader has closed it (`fsm
+/// camera info | head -1`), the run ends quietly as a Unix tool's does on SIGPIPE, with exit
+/// status 141 (128 + 13), after removing any output it had not committed; another write error
+/// ends it with status 1.
+pub fn write_stdout(text: std::fmt::Arguments) {
+    let mut out = io::stdout().lock();
+    if let Err(e) = out.write_fmt(text).and_then(|()| out.flush()) {
+        if e.kind() == io::ErrorKind::BrokenPipe {
+            exit_removing_unfinished("a closed standard output", 141, false);
+        }
+        eprintln!("fsm: error: writing to standard output: {e}");
+        std::process::exit(1);
+    }
+}
+
 /// Removes a file or a folder with everything in it; a folder another thread is still
 /// writing into is tried again.
 fn remove_entry(path: &Path) -> io::Result<()> {

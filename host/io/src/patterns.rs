@@ -199,6 +199,17 @@ pub struct Manifest {
     pub frames: Vec<ManifestFrame>,
 }
 
+impl Manifest {
+    /// The set in words, as `fsm patterns` reports it: `770 images of 768x768 (8-bit)`.
+    pub fn describe(&self) -> String {
+        let (frames, bits) = (self.frames.len(), self.bit_depth);
+        format!(
+            "{frames} images of {}x{} ({bits}-bit)",
+            self.width, self.height
+        )
+    }
+}
+
 /// The manifest entry of `pattern`.
 pub fn describe(plan: &ScanPlan, pattern: Pattern) -> ManifestPattern {
     match pattern {

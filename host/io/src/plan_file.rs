@@ -35,6 +35,10 @@ pub enum PlanSyntax {
 }
 
 impl PlanSyntax {
+    /// Every syntax, with its command-line name (`fsm plan --format`).
+    pub const ALL: [(PlanSyntax, &'static str); 2] =
+        [(PlanSyntax::Toml, "toml"), (PlanSyntax::Json, "json")];
+
     /// The syntax a file name implies: `.json` is JSON, anything else TOML.
     pub fn for_path(path: &Path) -> Self {
         match path.extension().and_then(|e| e.to_str()) {
@@ -127,6 +131,15 @@ impl MethodKind {
     /// The method called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.iter().find(|(_, n)| *n == name).map(|(m, _)| *m)
+    }
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        Self::ALL
+            .iter()
+            .find(|(m, _)| *m == self)
+            .expect("listed")
+            .1
     }
 
     /// The method's plan for a projector of `columns` columns, every dependent field derived
@@ -674,6 +687,21 @@ pub fn write_method_plan(plan: &MethodPlan, path: &Path) -> Result<()> {
     )
 }
 
+/// Writes the FSM plan's 80-byte wire form (`fsm_core::wire::plan`: the bytes `fsm upload`
+/// sends) to `path`, whole or not at all, and returns its length; a plan of another method is
+/// refused naming `path` (the camera decodes FSM).
+pub fn write_wire(plan: &MethodPlan, path: &Path) -> Result<usize> {
+    let bytes = plan
+        .fsm()
+        .map_err(|source| Error::PlanFile {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .to_bytes();
+    outputs::write_file(path, &bytes)?;
+    Ok(bytes.len())
+}
+
 /// Applies `key=value` overrides (dotted keys as in the file, values in TOML syntax; a bare
 /// word is a string) to `plan` and validates the result.
 pub fn apply_settings<'a>(
@@ -1044,5 +1072,30 @@ mod tests {
         assert_eq!(p.noise_factor, 8.0);
         let e = apply_method_settings(&ls, [("line_scan.noise", "8")]).unwrap_err();
         assert!(e.to_string().contains("noise_factor"), "{e}");
+    }
+
+    #[test]
+    fn the_wire_form_is_written_for_fsm_plans_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plan.bin");
+        let plan = Preset::PaperEfsm2.plan();
+        let len = write_wire(&MethodPlan::Fsm(plan), &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(
+            (len, ScanPlan::from_bytes(&bytes).unwrap()),
+            (bytes.len(), plan)
+        );
+        let other = dir.path().join("ls.bin");
+        let line_scan = MethodKind::LineScan.plan(256, 64, GroupCount::Two);
+        let e = write_wire(&line_scan, &other).unwrap_err().to_string();
+        assert!(e.contains("ls.bin") && e.contains("FSM"), "{e}");
+        assert!(!other.exists());
+    }
+
+    #[test]
+    fn names_are_the_tables() {
+        for (method, name) in MethodKind::ALL {
+            assert_eq!(MethodKind::from_name(method.name()), Some(method), "{name}");
+        }
     }
 }

@@ -258,6 +258,23 @@ pub fn grey_level_codes(levels: usize, max_code: u16) -> Result<Vec<u16>, String
         .collect())
 }
 
+/// The full code of 8- or 16-bit projector images.
+fn full_code(sixteen_bit: bool) -> u16 {
+    if sixteen_bit {
+        u16::MAX
+    } else {
+        u8::MAX as u16
+    }
+}
+
+/// The codes of `levels` grey levels of 8- or 16-bit images as [`write_grey_level_set`] makes
+/// them, as fractions of the full code: the captures' codes when no manifest is at hand.
+pub fn grey_level_fractions(levels: usize, sixteen_bit: bool) -> Result<Vec<f64>> {
+    let max_code = full_code(sixteen_bit);
+    let codes = grey_level_codes(levels, max_code).map_err(Error::Usage)?;
+    Ok(codes.iter().map(|&c| c as f64 / max_code as f64).collect())
+}
+
 /// One image of a grey-level set.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -314,6 +331,20 @@ impl GreyLevelManifest {
         Ok(m)
     }
 
+    /// The set in words, as `fsm calibrate response --write-patterns` reports it: `17
+    /// grey-level images of 1024x768 (8-bit, codes 0, 16, …, 255)`.
+    pub fn describe(&self) -> String {
+        let codes: Vec<String> = self.levels.iter().map(|l| l.code.to_string()).collect();
+        format!(
+            "{} grey-level images of {}x{} ({}-bit, codes {})",
+            self.levels.len(),
+            self.width,
+            self.height,
+            self.bit_depth,
+            codes.join(", ")
+        )
+    }
+
     /// The response inputs of the levels, in order.
     pub fn fractions(&self) -> Vec<f64> {
         self.levels.iter().map(|l| l.fraction).collect()
@@ -356,11 +387,7 @@ pub fn write_grey_level_set(
     format: ImageFormat,
     replace: bool,
 ) -> Result<GreyLevelManifest> {
-    let max_code = if sixteen_bit {
-        u16::MAX
-    } else {
-        u8::MAX as u16
-    };
+    let max_code = full_code(sixteen_bit);
     let codes = grey_level_codes(levels, max_code).map_err(Error::Usage)?;
     if width == 0 || height == 0 {
         return Err(Error::Usage(format!(
@@ -501,11 +528,16 @@ pub struct ResponseEstimate {
 }
 
 impl ResponseEstimate {
-    /// The estimate as the text `fsm calibrate response` prints for the captures in `images`
-    /// of a `bits`-bit sensor: pixels used, the fit, and every level.
-    pub fn table(&self, images: &std::path::Path, bits: u8) -> String {
+    /// The sensor's bit depth the captures were read with (of [`Self::saturation_code`]).
+    pub fn bit_depth(&self) -> u8 {
+        (self.saturation_code as u32 + 1).trailing_zeros() as u8
+    }
+
+    /// The estimate as the text `fsm calibrate response` prints for the captures in `images`:
+    /// pixels used, the fit, and every level.
+    pub fn table(&self, images: &std::path::Path) -> String {
         use std::fmt::Write;
-        let e = self;
+        let (e, bits) = (self, self.bit_depth());
         let mut out = format!(
             "projector response from {} ({} levels, {bits}-bit sensor): {} of {} pixels used ({} saturated in the dark or full-code capture, {} too dim; median contrast {:.0} codes)\n",
             images.display(),
@@ -945,6 +977,28 @@ pub fn estimate_from_folder(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_default_codes_are_those_of_the_grey_level_set() {
+        let dir = tempfile::tempdir().unwrap();
+        for sixteen_bit in [false, true] {
+            let out = dir.path().join(format!("levels-{sixteen_bit}"));
+            let set = write_grey_level_set(&out, 5, 2, 2, sixteen_bit, ImageFormat::Png, false);
+            let fractions = grey_level_fractions(5, sixteen_bit).unwrap();
+            let set = set.unwrap();
+            assert_eq!(fractions, set.fractions());
+            let codes = if sixteen_bit {
+                "0, 16384, 32768, 49151, 65535"
+            } else {
+                "0, 64, 128, 191, 255"
+            };
+            let bits = if sixteen_bit { 16 } else { 8 };
+            let said = format!("5 grey-level images of 2x2 ({bits}-bit, codes {codes})");
+            assert_eq!(set.describe(), said);
+        }
+        let e = grey_level_fractions(2, false).unwrap_err().to_string();
+        assert!(e.contains("--levels 2"), "{e}");
+    }
 
     #[test]
     fn pre_correction_inverts_the_response() {

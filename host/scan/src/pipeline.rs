@@ -2,12 +2,13 @@
 //! a candidate file), checked against the calibration, reconstructed into a surface and
 //! written into a folder with its summary. The command only turns arguments into these calls.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use fsm_geometry::Calibration;
+use fsm_geometry::{Calibration, Pinhole};
 use fsm_io::capture::Capture;
 use fsm_io::decode::{DecodeOptions, DecodeSummary};
+use fsm_io::image_files::read_tiff_f32;
 use fsm_io::plan_file::MethodPlan;
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
@@ -91,7 +92,7 @@ impl ScanCandidates {
 /// The calibration a scan uses and the file it came from, for the checks that name the file.
 pub struct ScanCalibration {
     /// The file.
-    pub path: std::path::PathBuf,
+    pub path: PathBuf,
     /// Its calibration.
     pub calibration: Calibration,
 }
@@ -100,7 +101,7 @@ impl ScanCalibration {
     /// Reads the calibration file `path` and checks that its projector is the one `plan`
     /// (read from `plan_path`) addresses.
     pub fn read_for(path: &Path, plan: &MethodPlan, plan_path: &Path) -> Result<Self> {
-        let calibration = Calibration::read(path).map_err(|e| Error::Usage(e.to_string()))?;
+        let calibration = Calibration::read(path)?;
         let plan_columns = plan.patterns().projector_columns();
         if calibration.projector_columns() != plan_columns as u32 {
             return Err(Error::Usage(format!(
@@ -132,13 +133,39 @@ impl ScanCalibration {
 }
 
 /// The true surface of a simulated capture (`fsm simulate`'s `truth/`), to score the points.
-pub struct Truth<'a> {
+pub struct Truth {
     /// The truth folder, for the summary.
-    pub folder: &'a Path,
+    pub folder: PathBuf,
     /// True depth per pixel, mm (NaN: background).
-    pub depth_mm: &'a [f32],
+    pub depth_mm: Vec<f32>,
     /// Whether each pixel is lit directly.
-    pub lit: &'a [bool],
+    pub lit: Vec<bool>,
+}
+
+impl Truth {
+    /// Reads the truth folder `dir` as `fsm_sim::folder::write_truth` writes it: the true depth
+    /// (`depth.tiff`, mm) and whether each pixel is lit directly (a finite true column in
+    /// `column.tiff`), each checked to be the calibrated `camera`'s size.
+    pub fn read(dir: &Path, camera: &Pinhole) -> Result<Truth> {
+        let (width, height) = (camera.width_px(), camera.height_px());
+        let read = |name: &str| {
+            let path = dir.join(name);
+            let (w, h, values) = read_tiff_f32(&path)
+                .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+            if (w, h) != (width, height) {
+                return Err(Error::Usage(format!(
+                    "{}: the truth is {w}x{h} pixels, the capture {width}x{height}",
+                    path.display()
+                )));
+            }
+            Ok(values)
+        };
+        Ok(Truth {
+            folder: dir.to_path_buf(),
+            depth_mm: read("depth.tiff")?,
+            lit: read("column.tiff")?.iter().map(|c| c.is_finite()).collect(),
+        })
+    }
 }
 
 /// A scan made and written.
@@ -147,6 +174,38 @@ pub struct Scanned {
     pub surface: Surface,
     /// What `summary.json` holds.
     pub summary: ScanSummary,
+}
+
+impl Scanned {
+    /// The scan of `candidates` written into `out`, as `fsm scan` reports it: the points of
+    /// the pixels, the candidates, each stage's seconds, then what the decode skipped.
+    pub fn report(&self, candidates: &ScanCandidates, out: &Path) -> String {
+        let (surface, summary) = (&self.surface, &self.summary);
+        format!(
+            "scanned {} ({}x{}): {} points of {} pixels from {} candidates ({} in the volume); \
+             {} {:.2} s, triangulation {:.2} s, selection {:.2} s -> {}{}",
+            candidates.source,
+            surface.width,
+            surface.height,
+            summary.points,
+            surface.width * surface.height,
+            summary.candidates,
+            summary.candidates_in_volume,
+            if candidates.decode.is_some() {
+                "decode"
+            } else {
+                "reading"
+            },
+            candidates.seconds,
+            summary.triangulate_seconds,
+            summary.select_seconds,
+            out.display(),
+            candidates
+                .decode
+                .as_ref()
+                .map_or(String::new(), |d| d.skipped_lines())
+        )
+    }
 }
 
 /// Reconstructs the surface of `candidates` (triangulation, selection with `params`,
@@ -158,7 +217,7 @@ pub fn scan_into(
     candidates: &ScanCandidates,
     calibration: &Calibration,
     params: &SelectionParams,
-    truth: Option<Truth<'_>>,
+    truth: Option<&Truth>,
 ) -> Result<Scanned> {
     let (surface, times) = Surface::reconstruct(&candidates.image, calibration, params);
     let seconds = StageSeconds {
@@ -180,7 +239,7 @@ pub fn scan_into(
         summary.bad_records = d.bad_records.iter().map(|b| b.error.clone()).collect();
     }
     summary.truth = truth.map(|truth| {
-        let errors = point_errors_from_depth(&surface.point_mm, truth.depth_mm, truth.lit, 1.0);
+        let errors = point_errors_from_depth(&surface.point_mm, &truth.depth_mm, &truth.lit, 1.0);
         TruthSummary {
             folder: truth.folder.display().to_string(),
             errors,

@@ -141,6 +141,18 @@ pub enum Paths {
     Sixteen,
 }
 
+/// `8` or `16` (`fsm scan --paths`).
+impl std::str::FromStr for Paths {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Paths, String> {
+        [Paths::Eight, Paths::Sixteen]
+            .into_iter()
+            .find(|p| p.count().to_string() == s)
+            .ok_or_else(|| format!("`{s}`: the selection aggregates along 8 or 16 paths"))
+    }
+}
+
 impl Paths {
     /// 8 or 16.
     pub fn count(self) -> u8 {
@@ -767,6 +779,16 @@ pub(crate) fn distance_mm(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn paths_are_named_by_their_count() {
+        assert_eq!("8".parse::<Paths>(), Ok(Paths::Eight));
+        assert_eq!("16".parse::<Paths>(), Ok(Paths::Sixteen));
+        for bad in ["4", "", "16 "] {
+            let e = bad.parse::<Paths>().unwrap_err();
+            assert!(e.contains("8 or 16"), "{e}");
+        }
+    }
 
     /// `C(v, l)` of every candidate, in the field's order.
     fn data_costs(field: &CandidateField) -> Vec<f32> {

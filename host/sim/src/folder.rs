@@ -8,7 +8,7 @@ use std::path::Path;
 use std::str::FromStr;
 
 use fsm_core::ScanPlan;
-use fsm_io::image_files::{read_tiff_f32, write_png_gray16, write_png_gray8, write_tiff_f32};
+use fsm_io::image_files::{write_png_gray16, write_png_gray8, write_tiff_f32};
 use fsm_io::outputs::write_file;
 use fsm_io::plan_file::{write_method_plan, write_plan, MethodPlan, Preset};
 use fsm_io::progress::Progress;
@@ -17,29 +17,45 @@ use fsm_io::{Error, Result};
 use crate::target::{self, BoardPose};
 use crate::{Capture, PatternSequence, Scene, Sensor, System, TransportSettings};
 
+/// How the captures of a simulation folder are made (`fsm simulate --camera --seed
+/// --supersampling`).
+#[derive(Clone, Debug)]
+pub struct Rendering {
+    /// The scanner.
+    pub system: System,
+    /// The sensor noise's seed.
+    pub seed: u64,
+    /// Rays per pixel along each axis of the light transport.
+    pub supersampling: u32,
+}
+
 /// A scene's folder: `plan.toml`, `calibration.toml`, `scan.dump` (or `images/0000.png…`
-/// with `images`), and `truth/` ([`write_truth`]). `dir` exists. The rows rendered are
-/// reported to `progress`.
+/// with `images`), and `truth/` ([`write_truth`]), of the capture of `scene` under `plan`'s
+/// patterns ([`capture_of`]), which is returned. `dir` exists. The rows rendered are reported
+/// to `progress`.
 pub fn write_scene(
     dir: &Path,
+    scene: &Scene,
     plan: &MethodPlan,
-    system: &System,
-    capture: &Capture,
+    rendering: &Rendering,
     images: bool,
     progress: &Progress,
-) -> Result<()> {
+) -> Result<Capture> {
+    let capture = capture_of(scene, plan.patterns(), rendering, progress)?;
+    let system = &rendering.system;
     write_method_plan(plan, &dir.join("plan.toml"))?;
     write_calibration(system, &dir.join("calibration.toml"))?;
     if images {
         let images = dir.join("images");
         std::fs::create_dir(&images).map_err(|e| Error::io(&images, e))?;
-        write_stack(capture, &images, progress)?;
+        write_stack(&capture, &images, progress)?;
     } else {
         capture
             .write_row_dump_file(&dir.join("scan.dump"), progress)
             .map_err(Error::from)?;
     }
-    write_truth(capture, &dir.join("truth"))
+    write_truth(&capture, &dir.join("truth"))?;
+    Ok(capture)
 }
 
 /// Where the board is: `R = R_y(yaw)·R_x(pitch)·R_z(roll)`, the centre of its corner grid at
@@ -178,20 +194,19 @@ impl FromStr for BoardPlacement {
     }
 }
 
-/// The scene's light transport (`supersampling` rays per pixel side, other settings default;
+/// The scene's light transport (`rendering`'s rays per pixel side, other settings default;
 /// its rows reported to `progress`) and a capture of `plan` over it.
 pub fn capture_of(
     scene: &Scene,
     plan: &(impl PatternSequence + ?Sized),
-    system: &System,
-    seed: u64,
-    supersampling: u32,
+    rendering: &Rendering,
     progress: &Progress,
 ) -> Result<Capture> {
     let settings = TransportSettings {
-        supersampling,
+        supersampling: rendering.supersampling,
         ..TransportSettings::default()
     };
+    let (system, seed) = (&rendering.system, rendering.seed);
     crate::simulate_with(
         plan,
         scene,
@@ -205,10 +220,7 @@ pub fn capture_of(
 }
 
 fn write_calibration(system: &System, path: &Path) -> Result<()> {
-    system
-        .calibration
-        .write(path)
-        .map_err(|e| Error::Usage(e.to_string()))
+    Ok(system.calibration.write(path)?)
 }
 
 /// Checks that every inner corner of `board` at `pose` lands on the camera image and on the
@@ -265,20 +277,18 @@ pub fn check_board_visible(
 /// One board pose folder: the plan, the true calibration, the frames at the top (a captured
 /// stack of `fsm calibrate target`), the ground truth and the true corners; the work
 /// reported to `progress`.
-#[allow(clippy::too_many_arguments)] // the pose, the system and the run's settings
 pub fn write_board_pose(
     dir: &Path,
     plan: &ScanPlan,
-    system: &System,
+    rendering: &Rendering,
     board: &target::PrintedBoard,
     placement: &BoardPlacement,
-    seed: u64,
-    supersampling: u32,
     progress: &Progress,
 ) -> Result<()> {
+    let system = &rendering.system;
     let pose = placement.pose(board);
     let scene = Scene::checkerboard(board, &pose);
-    let capture = capture_of(&scene, plan, system, seed, supersampling, progress)?;
+    let capture = capture_of(&scene, plan, rendering, progress)?;
     write_plan(plan, &dir.join("plan.toml"))?;
     write_calibration(system, &dir.join("calibration.toml"))?;
     write_stack(&capture, dir, progress)?;
@@ -310,25 +320,62 @@ pub struct BoardPoseFolder {
     pub placement: BoardPlacement,
 }
 
+impl BoardPoseFolder {
+    /// The one pose of `fsm simulate --board-pose`: the output folder itself.
+    pub fn one(placement: BoardPlacement) -> Vec<BoardPoseFolder> {
+        vec![BoardPoseFolder {
+            label: format!("--board-pose {placement}"),
+            folder: None,
+            placement,
+        }]
+    }
+
+    /// The first `count` poses of [`SPREAD`] (`fsm simulate --board-poses`), in the folders
+    /// `pose-01`, `pose-02`, ….
+    pub fn spread(count: usize) -> Vec<BoardPoseFolder> {
+        (SPREAD[..count].iter().enumerate())
+            .map(|(i, placement)| BoardPoseFolder {
+                label: format!("--board-poses: pose {} ({placement})", i + 1),
+                folder: Some(format!("pose-{:02}", i + 1)),
+                placement: *placement,
+            })
+            .collect()
+    }
+}
+
+/// `pose-01: yaw 15 pitch -15 roll 0 deg, centre (0, 0, 540) mm` (`pose:` for the output
+/// folder itself).
+impl std::fmt::Display for BoardPoseFolder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = &self.placement;
+        let [x, y, z] = p.centre_mm;
+        write!(
+            f,
+            "{}: yaw {} pitch {} roll {} deg, centre ({x}, {y}, {z}) mm",
+            self.folder.as_deref().unwrap_or("pose"),
+            p.yaw_deg,
+            p.pitch_deg,
+            p.roll_deg
+        )
+    }
+}
+
 /// Writes the pose folders of `fsm calibrate target` into `dir`: `board.toml` (the target
-/// definition), then every pose ([`write_board_pose`], pose `i`'s noise seed `seed + i`).
-/// Every pose is checked first, the whole board seen and lit ([`check_board_visible`]; the
-/// error names the pose by its label), so a bad pose costs no work. `done(pose, seed)` is
+/// definition), then every pose ([`write_board_pose`], pose `i`'s noise seed `rendering.seed +
+/// i`). Every pose is checked first, the whole board seen and lit ([`check_board_visible`];
+/// the error names the pose by its label), so a bad pose costs no work. `done(pose, seed)` is
 /// called after each.
-#[allow(clippy::too_many_arguments)]
 pub fn write_board_poses(
     dir: &Path,
     plan: &ScanPlan,
-    system: &System,
+    rendering: &Rendering,
     board: &target::PrintedBoard,
     poses: &[BoardPoseFolder],
-    seed: u64,
-    supersampling: u32,
     progress: &Progress,
     mut done: impl FnMut(&BoardPoseFolder, u64),
 ) -> Result<()> {
     for pose in poses {
-        check_board_visible(system, board, &pose.placement.pose(board))
+        check_board_visible(&rendering.system, board, &pose.placement.pose(board))
             .map_err(|e| Error::Usage(format!("{}: {e}", pose.label)))?;
     }
     write_file(&dir.join("board.toml"), board.grid.to_toml().as_bytes())?;
@@ -341,18 +388,19 @@ pub fn write_board_poses(
             }
             None => dir.to_path_buf(),
         };
-        let seed = seed + i as u64;
+        let rendering = Rendering {
+            seed: rendering.seed + i as u64,
+            ..rendering.clone()
+        };
         write_board_pose(
             &pose_dir,
             plan,
-            system,
+            &rendering,
             board,
             &pose.placement,
-            seed,
-            supersampling,
             progress,
         )?;
-        done(pose, seed);
+        done(pose, rendering.seed);
     }
     Ok(())
 }
@@ -455,7 +503,7 @@ pub fn write_stack(capture: &Capture, dir: &Path, progress: &Progress) -> Result
     Ok(())
 }
 
-/// The ground truth as images.
+/// The ground truth as images (what `fsm scan --truth` reads: `fsm_scan::pipeline::Truth`).
 pub fn write_truth(capture: &Capture, dir: &Path) -> Result<()> {
     std::fs::create_dir(dir).map_err(|e| Error::io(dir, e))?;
     let truth = capture.ground_truth();
@@ -489,23 +537,27 @@ pub fn write_truth(capture: &Capture, dir: &Path) -> Result<()> {
     write_file(&path, &bytes)
 }
 
-/// The truth of a simulation folder as `fsm scan --truth` reads it ([`write_truth`]'s
-/// `depth.tiff` and `column.tiff`): the true depth (mm, NaN: background) and whether each pixel
-/// is lit directly (a finite true column), checked to be `width × height`.
-pub fn read_truth(dir: &Path, width: u32, height: u32) -> Result<(Vec<f32>, Vec<bool>)> {
-    let read = |name: &str| {
-        let path = dir.join(name);
-        let (w, h, values) =
-            read_tiff_f32(&path).map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
-        if (w, h) != (width, height) {
-            return Err(Error::Usage(format!(
-                "{}: the truth is {w}x{h} pixels, the capture {width}x{height}",
-                path.display()
-            )));
-        }
-        Ok(values)
-    };
-    let depth = read("depth.tiff")?;
-    let lit = read("column.tiff")?.iter().map(|c| c.is_finite()).collect();
-    Ok((depth, lit))
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn board_pose_folders_are_named_and_labelled() {
+        let poses = BoardPoseFolder::spread(3);
+        let folders: Vec<_> = poses.iter().map(|p| p.folder.as_deref().unwrap()).collect();
+        assert_eq!(folders, ["pose-01", "pose-02", "pose-03"]);
+        assert_eq!(poses[1].placement, SPREAD[1]);
+        assert_eq!(poses[0].label, "--board-poses: pose 1 (15,-15,0,0,0,540)");
+        assert_eq!(
+            poses[0].to_string(),
+            "pose-01: yaw 15 pitch -15 roll 0 deg, centre (0, 0, 540) mm"
+        );
+        let one = BoardPoseFolder::one("25,-15,10,520".parse().unwrap());
+        assert_eq!((one.len(), one[0].folder.as_deref()), (1, None));
+        assert_eq!(one[0].label, "--board-pose 25,-15,10,0,0,520");
+        assert_eq!(
+            one[0].to_string(),
+            "pose: yaw 25 pitch -15 roll 10 deg, centre (0, 0, 520) mm"
+        );
+    }
 }

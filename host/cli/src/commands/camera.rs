@@ -82,7 +82,7 @@ enum CameraCommand {
 }
 
 pub fn upload(args: UploadArgs) -> Result<()> {
-    let plan = super::load_plan(&args.plan)?;
+    let plan = fsm_io::plan_file::read_plan(&args.plan)?;
     let link = &args.link;
     let (fingerprint, info) =
         client::upload(&link.device, &plan, link.timeout()).map_err(link.error())?;
@@ -122,7 +122,7 @@ pub fn camera(args: CameraArgs) -> Result<()> {
             out,
             raw,
         } => {
-            let scan_plan = super::load_plan(&plan)?;
+            let scan_plan = fsm_io::plan_file::read_plan(&plan)?;
             let output = if raw {
                 RowOutput::Raw
             } else {

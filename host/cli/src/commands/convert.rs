@@ -2,9 +2,9 @@
 
 use std::path::PathBuf;
 
-use fsm_io::capture::Capture;
 use fsm_io::dump;
 use fsm_io::progress::Progress;
+use fsm_io::stack::Stack;
 use fsm_io::Result;
 
 use super::{BitDepth, MemoryBudget};
@@ -39,10 +39,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     fsm_io::outputs::check_file_target(&args.out, args.force)?;
     let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
-    let Capture::Stack(stack) = Capture::open_stack(&args.images, plan, args.bit_depth.bit_depth)?
-    else {
-        unreachable!("open_stack returns a stack")
-    };
+    let stack = Stack::open(&args.images, plan, args.bit_depth.bit_depth)?;
     let header = dump::write_dump_from_stack(
         plan,
         &stack,

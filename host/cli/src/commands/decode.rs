@@ -8,7 +8,7 @@ use fsm_io::decode;
 use fsm_io::progress::Progress;
 use fsm_io::Result;
 
-use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
+use super::{CaptureArgs, DecodeArgs, OutDir};
 
 /// Decode a scan: every projector column that lights each camera pixel.
 ///
@@ -32,48 +32,29 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
     #[command(flatten)]
-    source: CaptureSource,
+    capture: CaptureArgs,
     #[command(flatten)]
-    bit_depth: BitDepth,
-    #[command(flatten)]
-    bad_rows: BadRowsArg,
-    /// Output folder (created; must not exist or be empty, unless --force).
-    #[arg(long, value_name = "DIR")]
-    out: PathBuf,
+    output: OutDir,
     #[command(flatten)]
     decode: DecodeArgs,
-    /// Replace the output folder if it exists and is not empty.
-    #[arg(long)]
-    force: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
-    let capture = args
-        .source
-        .open(plan, &args.bit_depth, args.bad_rows.policy())?;
-    let options = args.decode.options();
+    let capture = args.capture.open(plan)?;
+    let out = &args.output.out;
     let summary = decode::decode_to_dir(
         plan,
         &capture,
-        &args.out,
-        args.force,
-        &options,
+        out,
+        args.output.force,
+        &args.decode.options(),
         &Progress::stderr(),
     )?;
-    eprintln!(
-        "decoded {} ({}x{}) in {:.2} s: {:.3} Mpx/s\n  {}",
-        capture.describe(),
-        summary.width,
-        summary.height,
-        summary.seconds,
-        summary.megapixels_per_second(),
-        summary.counts()
-    );
-    report_bad_rows(&summary);
+    eprintln!("{}", summary.report(&capture.describe()));
     eprintln!(
         "  wrote {}/{{{CANDIDATE_FILE_NAME}, {COLUMN_TIFF_NAME}, {COLUMN_PREVIEW_NAME}}}",
-        args.out.display()
+        out.display()
     );
     Ok(())
 }

@@ -44,7 +44,7 @@ pub struct Args {
     #[arg(long, value_name = "DIR", default_value = "fsm-demo")]
     out: PathBuf,
     /// Camera size WxH (same field of view).
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = |s: &str| super::parse_size(s, 8))]
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = super::size::<8>)]
     camera: (u32, u32),
     /// Noise seed.
     #[arg(long, default_value_t = 1)]

@@ -3,10 +3,9 @@
 use std::path::PathBuf;
 
 use fsm_core::Group;
-use fsm_io::candidate_file::HostCandidates;
 use fsm_io::capture::BadRows;
 use fsm_io::inspect;
-use fsm_io::plan_file::{self, MethodPlan};
+use fsm_io::plan_file;
 use fsm_io::Result;
 
 use super::{BitDepth, CaptureSource};
@@ -48,8 +47,8 @@ pub struct Args {
     #[arg(long, value_name = "Y")]
     row: Option<u32>,
     /// EFSM pattern group shown by --row (1 or 2; default 1).
-    #[arg(long, value_name = "G", value_parser = clap::value_parser!(u8).range(1..=2))]
-    group: Option<u8>,
+    #[arg(long, value_name = "G", value_parser = super::named([(Group::One, "1"), (Group::Two, "2")]))]
+    group: Option<Group>,
     /// Output picture (PNG).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
@@ -65,32 +64,10 @@ pub fn run(args: Args) -> Result<()> {
     if let Some((x, y)) = args.pixel {
         let candidates = inspect::draw_pixel(&plan, &capture, x, y, &args.out)?;
         eprintln!("wrote {}", args.out.display());
-        say_candidates(x, y, &candidates, matches!(plan, MethodPlan::Fsm(_)));
+        say!("{}", inspect::candidate_lines(&plan, x, y, &candidates));
     } else if let Some(y) = args.row {
-        let group = args
-            .group
-            .map(|g| if g == 2 { Group::Two } else { Group::One });
-        inspect::draw_row(&plan, &capture, y, group, &args.out)?;
+        inspect::draw_row(&plan, &capture, y, args.group, &args.out)?;
         eprintln!("wrote {}", args.out.display());
     }
     Ok(())
-}
-
-/// Prints a pixel's candidates, one a line (FSM: with the group and block each came from).
-fn say_candidates(x: u32, y: u32, candidates: &HostCandidates, fsm: bool) {
-    if candidates.candidates.is_empty() {
-        sayln!("pixel ({x}, {y}): no candidate");
-    }
-    for c in &candidates.candidates {
-        let origin = if fsm {
-            format!(", group {}, block {}", c.group.number(), c.block)
-        } else {
-            String::new()
-        };
-        sayln!(
-            "pixel ({x}, {y}): column {:.3}, amplitude {:.1} DN{origin}",
-            c.column,
-            c.amplitude
-        );
-    }
 }

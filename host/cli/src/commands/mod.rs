@@ -13,10 +13,12 @@ pub mod simulate;
 
 use std::path::PathBuf;
 
-use fsm_core::ScanPlan;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use fsm_io::capture::{BadRows, Capture};
 use fsm_io::decode::DecodeOptions;
-use fsm_io::{plan_file, Result};
+use fsm_io::outputs::StagedDir;
+use fsm_io::plan_file::MethodPlan;
+use fsm_io::Result;
 
 /// Where the captured data is: exactly one of a stack of images or a row dump.
 #[derive(clap::Args, Debug)]
@@ -31,9 +33,25 @@ pub struct CaptureSource {
     pub dump: Option<PathBuf>,
 }
 
-/// What a bad record of a dump does.
+impl CaptureSource {
+    /// Opens and checks the capture against `plan` (before any work).
+    pub fn open(&self, plan: MethodPlan, bits: &BitDepth, bad_rows: BadRows) -> Result<Capture> {
+        match (&self.images, &self.dump) {
+            (Some(dir), _) => Capture::open_stack(dir, plan, bits.bit_depth),
+            (None, Some(path)) => Capture::open_dump(path, plan, bits.bit_depth, bad_rows),
+            (None, None) => unreachable!("clap requires one source"),
+        }
+    }
+}
+
+/// A capture to decode (`fsm decode`, `fsm scan`): where it is, the sensor's bit depth, and
+/// what a bad record of a dump does.
 #[derive(clap::Args, Debug)]
-pub struct BadRowsArg {
+pub struct CaptureArgs {
+    #[command(flatten)]
+    pub source: CaptureSource,
+    #[command(flatten)]
+    pub bit_depth: BitDepth,
     /// Decode a dump whose records fail their check (CRC, row index, a repeated row) or that
     /// ends early: the good rows are decoded, the bad or missing ones get no point (no_data)
     /// and are listed on stderr (and in summary.json). By default such a dump is refused
@@ -42,21 +60,15 @@ pub struct BadRowsArg {
     pub skip_bad_rows: bool,
 }
 
-impl BadRowsArg {
-    /// The policy.
-    pub fn policy(&self) -> BadRows {
-        if self.skip_bad_rows {
+impl CaptureArgs {
+    /// Opens and checks the capture against `plan` (before any work).
+    pub fn open(&self, plan: MethodPlan) -> Result<Capture> {
+        let bad_rows = if self.skip_bad_rows {
             BadRows::Skip
         } else {
             BadRows::Refuse
-        }
-    }
-}
-
-/// Tells what a decode skipped ([`BadRows::Skip`]), on stderr.
-pub fn report_bad_rows(summary: &fsm_io::decode::DecodeSummary) {
-    if let Some(skipped) = summary.skipped() {
-        eprintln!("  {}", skipped.replace('\n', "\n  "));
+        };
+        self.source.open(plan, &self.bit_depth, bad_rows)
     }
 }
 
@@ -107,34 +119,42 @@ pub struct BitDepth {
     pub bit_depth: Option<u8>,
 }
 
-impl CaptureSource {
-    /// Opens and checks the capture against `plan` (before any work).
-    pub fn open(
-        &self,
-        plan: impl Into<fsm_io::plan_file::MethodPlan>,
-        bit_depth: &BitDepth,
-        bad_rows: BadRows,
-    ) -> Result<Capture> {
-        match (&self.images, &self.dump) {
-            (Some(dir), _) => Capture::open_stack(dir, plan, bit_depth.bit_depth),
-            (None, Some(path)) => Capture::open_dump(path, plan, bit_depth.bit_depth, bad_rows),
-            (None, None) => unreachable!("clap requires one source"),
-        }
+/// An output folder, written whole or not at all (`fsm patterns`, `decode`, `scan`,
+/// `simulate`).
+#[derive(clap::Args, Debug)]
+pub struct OutDir {
+    /// Output folder (created; must not exist or be empty, unless --force).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Replace the output folder if it exists and is not empty.
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl OutDir {
+    /// The folder staged under a temporary name (refused if it is in the way).
+    pub fn stage(&self) -> Result<StagedDir> {
+        StagedDir::create(&self.out, self.force)
     }
 }
 
-/// Reads the plan file.
-pub fn load_plan(path: &std::path::Path) -> Result<ScanPlan> {
-    plan_file::read_plan(path)
+/// A value parser over one of the libraries' name tables (`Preset::ALL`, `MethodKind::ALL`,
+/// …): the names are the possible values, and the value is the library's.
+pub fn named<T, const N: usize>(table: [(T, &'static str); N]) -> impl TypedValueParser<Value = T>
+where
+    T: Copy + Send + Sync + 'static,
+{
+    PossibleValuesParser::new(table.map(|(_, name)| name)).map(move |name| {
+        table
+            .into_iter()
+            .find(|(_, n)| *n == name)
+            .expect("listed")
+            .0
+    })
 }
 
-/// The `--preset` names (`fsm plan`, `fsm simulate`).
-pub fn preset_parser() -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(fsm_io::plan_file::Preset::ALL.map(|(_, n)| n))
-}
-
-/// `WxH`, both at least `min`.
-pub fn parse_size(s: &str, min: u32) -> std::result::Result<(u32, u32), String> {
+/// `WxH`, both at least `MIN`.
+pub fn size<const MIN: u32>(s: &str) -> std::result::Result<(u32, u32), String> {
     let (w, h) = s
         .split_once('x')
         .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 1280x1024"))?;
@@ -142,8 +162,8 @@ pub fn parse_size(s: &str, min: u32) -> std::result::Result<(u32, u32), String> 
         v.trim()
             .parse::<u32>()
             .ok()
-            .filter(|&v| v >= min)
-            .ok_or_else(|| format!("`{s}`: `{v}` is not a size of {min} or more pixels"))
+            .filter(|&v| v >= MIN)
+            .ok_or_else(|| format!("`{s}`: `{v}` is not a size of {MIN} or more pixels"))
     };
     Ok((parse(w)?, parse(h)?))
 }

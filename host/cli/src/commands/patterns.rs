@@ -22,9 +22,8 @@ pub struct Args {
     /// Plan file, of any method.
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
-    /// Output folder (created; must not exist or be empty, unless --force).
-    #[arg(long, value_name = "DIR")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: super::OutDir,
     /// Projector height in pixels.
     #[arg(long, value_name = "ROWS")]
     height: u32,
@@ -46,9 +45,6 @@ pub struct Args {
     /// [projector_response] section, from `fsm calibrate response --calibration`).
     #[arg(long, value_name = "FILE", conflicts_with = "gamma")]
     calibration: Option<PathBuf>,
-    /// Replace the output folder if it exists and is not empty.
-    #[arg(long)]
-    force: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -63,29 +59,19 @@ pub fn run(args: Args) -> Result<()> {
         width: args.width,
         height: args.height,
         sixteen_bit: args.sixteen_bit,
-        format: if args.tiff {
-            ImageFormat::Tiff
-        } else {
-            ImageFormat::Png
-        },
+        format: ImageFormat::png_or_tiff(args.tiff),
         response,
     };
+    let out = &args.output.out;
     let manifest = patterns::write_method_pattern_set(
         &plan,
         &options,
         response_file,
-        &args.out,
-        args.force,
+        out,
+        args.output.force,
         &Progress::stderr(),
     )?;
-    eprintln!(
-        "wrote {} images of {}x{} ({}-bit) and {} to {}",
-        manifest.frames.len(),
-        manifest.width,
-        manifest.height,
-        manifest.bit_depth,
-        patterns::MANIFEST_NAME,
-        args.out.display()
-    );
+    let (what, name) = (manifest.describe(), patterns::MANIFEST_NAME);
+    eprintln!("wrote {what} and {name} to {}", out.display());
     Ok(())
 }

@@ -1,13 +1,13 @@
 //! `fsm plan`: write a plan file for any method (from a preset or from the projector's
 //! width, with overrides), or check one.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use clap::builder::PossibleValuesParser;
-use clap::ValueEnum;
 use fsm_core::GroupCount;
 use fsm_io::plan_file::{self, MethodKind, MethodPlan, PlanSyntax, Preset};
 use fsm_io::{Error, Result};
+
+use super::named;
 
 /// Write or check a plan file (TOML or JSON, chosen by the file extension).
 ///
@@ -28,13 +28,14 @@ use fsm_io::{Error, Result};
 /// `--set line_scan.noise_factor=8`.
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["preset", "method", "check"])))]
 pub struct Args {
     /// Start from a preset: the paper's systems (§VII): 768 projector columns; BFSM with 768
     /// fringes, or EFSM with 64-column blocks and one or two groups (76 / 152 patterns); the
     /// -fast ones are decoded by the paper's local-maximum search (Hann, Gaussian, N = 64),
     /// the camera's fast decoder, less accurate on blurred light.
-    #[arg(long, conflicts_with_all = ["check", "method"], value_parser = super::preset_parser())]
-    preset: Option<String>,
+    #[arg(long, conflicts_with_all = ["check", "method"], value_parser = named(Preset::ALL))]
+    preset: Option<Preset>,
     /// Make a plan of this method for a projector of --projector-columns columns: BFSM, EFSM,
     /// or one of the methods the paper compares them with (phase shift + Gray code, Micro Phase
     /// Shifting, Code Ensemble, line scanning; see docs/comparison.md).
@@ -42,9 +43,9 @@ pub struct Args {
         long,
         conflicts_with = "check",
         requires = "projector_columns",
-        value_parser = PossibleValuesParser::new(MethodKind::ALL.map(|(_, n)| n))
+        value_parser = named(MethodKind::ALL)
     )]
-    method: Option<String>,
+    method: Option<MethodKind>,
     /// The projector's columns, for --method.
     #[arg(long, value_name = "COLUMNS", requires = "method")]
     projector_columns: Option<u16>,
@@ -52,11 +53,11 @@ pub struct Args {
     #[arg(long, value_name = "COLUMNS", default_value_t = 64)]
     block_width: u16,
     /// EFSM: pattern groups, 1 or 2 (default 2).
-    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
-    groups: u8,
+    #[arg(long, value_name = "N", default_value = "2", value_parser = named([(GroupCount::One, "1"), (GroupCount::Two, "2")]))]
+    groups: GroupCount,
     /// Override a field: KEY=VALUE (repeatable); the result is validated.
-    #[arg(long = "set", value_name = "KEY=VALUE", conflicts_with = "check")]
-    settings: Vec<String>,
+    #[arg(long = "set", value_name = "KEY=VALUE", conflicts_with = "check", value_parser = setting)]
+    settings: Vec<(String, String)>,
     /// Write the plan here (.toml or .json); without it the plan is printed.
     #[arg(long, value_name = "FILE", conflicts_with = "check")]
     out: Option<PathBuf>,
@@ -71,59 +72,50 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     wire: Option<PathBuf>,
     /// Syntax when printing (default TOML).
-    #[arg(long, value_enum, default_value_t = Syntax::Toml)]
-    format: Syntax,
+    #[arg(long, default_value = "toml", value_parser = named(PlanSyntax::ALL))]
+    format: PlanSyntax,
 }
 
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum Syntax {
-    Toml,
-    Json,
+/// `KEY=VALUE` of `--set`.
+fn setting(s: &str) -> std::result::Result<(String, String), String> {
+    let (key, value) = plan_file::split_setting(s).ok_or("expected KEY=VALUE")?;
+    Ok((key.to_owned(), value.to_owned()))
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if let Some(path) = &args.check {
-        if let Some(wire) = &args.wire {
-            fsm_io::outputs::check_file_target(wire, args.force)?;
-        }
-        let plan = plan_file::read_method_plan(path)?;
-        sayln!("{}: valid plan", path.display());
-        print_summary(&plan);
-        return write_wire(&plan, args.wire.as_deref());
-    }
-    let (start, origin) = match (&args.preset, &args.method, args.projector_columns) {
-        (Some(name), _, _) => (
-            MethodPlan::Fsm(Preset::from_name(name).expect("clap checked").plan()),
-            format!("preset {name}"),
-        ),
-        (None, Some(name), Some(columns)) => {
-            let groups = if args.groups == 1 {
-                GroupCount::One
-            } else {
-                GroupCount::Two
-            };
-            let method = MethodKind::from_name(name).expect("clap checked");
-            (
-                method.plan(columns, args.block_width, groups),
-                format!("--method {name} --projector-columns {columns}"),
-            )
-        }
-        _ => {
-            return Err(Error::Usage(
-                "give --preset NAME or --method NAME --projector-columns N (to write a plan), or --check FILE (to check one); see fsm plan --help".into(),
-            ))
-        }
-    };
     for path in [&args.out, &args.wire].into_iter().flatten() {
         fsm_io::outputs::check_file_target(path, args.force)?;
     }
-    let mut settings = Vec::new();
-    for s in &args.settings {
-        settings.push(
-            plan_file::split_setting(s)
-                .ok_or_else(|| Error::Usage(format!("--set {s}: expected KEY=VALUE")))?,
-        );
+    let plan = match &args.check {
+        Some(path) => {
+            let plan = plan_file::read_method_plan(path)?;
+            sayln!("{}: valid plan", path.display());
+            say!("{}", plan.description());
+            plan
+        }
+        None => write(&args)?,
+    };
+    if let Some(path) = &args.wire {
+        let bytes = plan_file::write_wire(&plan, path)?;
+        eprintln!("wrote {} ({bytes} bytes)", path.display());
     }
+    Ok(())
+}
+
+/// The plan of --preset or --method with the --set overrides, written to --out or printed.
+fn write(args: &Args) -> Result<MethodPlan> {
+    let (start, origin) = match (args.preset, args.method, args.projector_columns) {
+        (Some(preset), ..) => (
+            MethodPlan::Fsm(preset.plan()),
+            format!("preset {}", preset.name()),
+        ),
+        (None, Some(method), Some(columns)) => (
+            method.plan(columns, args.block_width, args.groups),
+            format!("--method {} --projector-columns {columns}", method.name()),
+        ),
+        _ => unreachable!("clap requires --preset, --method with --projector-columns, or --check"),
+    };
+    let settings = args.settings.iter().map(|(k, v)| (k.as_str(), v.as_str()));
     let plan =
         plan_file::apply_method_settings(&start, settings).map_err(|source| Error::PlanFile {
             path: origin.into(),
@@ -133,34 +125,9 @@ pub fn run(args: Args) -> Result<()> {
         Some(out) => {
             plan_file::write_method_plan(&plan, out)?;
             eprintln!("wrote {}", out.display());
-            print_summary(&plan);
+            say!("{}", plan.description());
         }
-        None => {
-            let syntax = match args.format {
-                Syntax::Toml => PlanSyntax::Toml,
-                Syntax::Json => PlanSyntax::Json,
-            };
-            say!("{}", plan_file::render_method_plan(&plan, syntax));
-        }
+        None => say!("{}", plan_file::render_method_plan(&plan, args.format)),
     }
-    write_wire(&plan, args.wire.as_deref())
-}
-
-/// Writes the plan's wire bytes to `path`, whole or not at all: FSM plans only (the camera
-/// decodes FSM).
-fn write_wire(plan: &MethodPlan, path: Option<&Path>) -> Result<()> {
-    let Some(path) = path else {
-        return Ok(());
-    };
-    let plan = plan.fsm().map_err(|source| Error::PlanFile {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    fsm_io::outputs::write_file(path, &plan.to_bytes())?;
-    eprintln!("wrote {} ({} bytes)", path.display(), plan.to_bytes().len());
-    Ok(())
-}
-
-fn print_summary(plan: &MethodPlan) {
-    say!("{}", plan.description());
+    Ok(plan)
 }

@@ -4,13 +4,12 @@
 use std::path::PathBuf;
 
 use fsm_geometry::Calibration;
-use fsm_io::outputs::StagedDir;
 use fsm_io::progress::Progress;
 use fsm_io::Result;
 use fsm_scan::pipeline::{scan_into, ScanCalibration, ScanCandidates, Truth};
 use fsm_scan::{Paths, SelectionParams};
 
-use super::{report_bad_rows, BadRowsArg, BitDepth, CaptureSource, DecodeArgs};
+use super::{CaptureArgs, DecodeArgs, OutDir};
 
 /// Scan a surface: decode the capture, triangulate every candidate, select the direct one.
 ///
@@ -50,26 +49,18 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     calibration: PathBuf,
     #[command(flatten)]
-    source: CaptureSource,
+    capture: CaptureArgs,
     /// Candidate file of the capture (`fsm decode`'s candidates.fsmc, or a camera's), decoded
     /// with this plan: the scan starts from its candidates. FSM plans need --bit-depth with it
     /// (the file does not record the sensor's, and a point's quality is measured in it).
     #[arg(long, value_name = "FILE", group = "CaptureSource")]
     candidates: Option<PathBuf>,
     #[command(flatten)]
-    bit_depth: BitDepth,
-    #[command(flatten)]
-    bad_rows: BadRowsArg,
-    /// Output folder (created; must not exist or be empty, unless --force).
-    #[arg(long, value_name = "DIR")]
-    out: PathBuf,
+    output: OutDir,
     #[command(flatten)]
     selection: SelectionArgs,
     #[command(flatten)]
     decode: DecodeArgs,
-    /// Replace the output folder if it exists and is not empty.
-    #[arg(long)]
-    force: bool,
     /// The truth folder of a simulated capture (`fsm simulate`'s truth/: depth.tiff and
     /// column.tiff): summary.json then counts the points more than 1 mm from the true surface
     /// and the directly lit pixels that kept a right point.
@@ -82,8 +73,8 @@ pub struct Args {
 pub struct SelectionArgs {
     /// Aggregation paths of the selection: 8 or 16 (16 choose better where reflections make
     /// large fictitious surfaces, at twice the selection's time).
-    #[arg(long, default_value_t = 16, value_parser = parse_paths)]
-    paths: u8,
+    #[arg(long, default_value = "16", value_parser = str::parse::<Paths>)]
+    paths: Paths,
     /// Neighbours closer than this (mm) cost nothing (default: 4 pixel footprints at the
     /// middle of the measurement volume).
     #[arg(long, value_name = "MM")]
@@ -120,11 +111,7 @@ impl SelectionArgs {
     /// given.
     pub fn params(&self, calibration: &Calibration) -> SelectionParams {
         let mut params = SelectionParams::for_calibration(calibration);
-        params.paths = if self.paths == 16 {
-            Paths::Sixteen
-        } else {
-            Paths::Eight
-        };
+        params.paths = self.paths;
         params.epsilon_mm = self.epsilon_mm.unwrap_or(params.epsilon_mm);
         params.beta_per_mm = self.beta_per_mm.unwrap_or(params.beta_per_mm);
         params.drop_aliased = !self.keep_aliased;
@@ -135,74 +122,35 @@ impl SelectionArgs {
     }
 }
 
-fn parse_paths(s: &str) -> std::result::Result<u8, String> {
-    match s {
-        "8" => Ok(8),
-        "16" => Ok(16),
-        _ => Err(format!(
-            "`{s}`: the selection aggregates along 8 or 16 paths"
-        )),
-    }
-}
-
 pub fn run(args: Args) -> Result<()> {
     let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
     let calibration = ScanCalibration::read_for(&args.calibration, &plan, &args.plan)?;
     let camera = &calibration.calibration.camera;
     // Read before any work: a bad truth folder fails fast.
-    let truth = match &args.truth {
-        Some(dir) => Some(fsm_sim::folder::read_truth(
-            dir,
-            camera.width_px(),
-            camera.height_px(),
-        )?),
-        None => None,
-    };
-    let staged = StagedDir::create(&args.out, args.force)?;
+    let truth = args.truth.as_deref().map(|dir| Truth::read(dir, camera));
+    let truth = truth.transpose()?;
+    let staged = args.output.stage()?;
     let candidates = match &args.candidates {
-        Some(path) => ScanCandidates::read(&plan, path, args.bit_depth.bit_depth, &calibration)?,
+        Some(path) => {
+            let bits = args.capture.bit_depth.bit_depth;
+            ScanCandidates::read(&plan, path, bits, &calibration)?
+        }
         None => {
-            let capture = args
-                .source
-                .open(plan, &args.bit_depth, args.bad_rows.policy())?;
+            let capture = args.capture.open(plan)?;
             let options = args.decode.options();
             ScanCandidates::decode(plan, &capture, &calibration, &options, &Progress::stderr())?
         }
     };
     let params = args.selection.params(&calibration.calibration);
-    let truth = args.truth.as_deref().zip(truth.as_ref());
     let scanned = scan_into(
         staged.path(),
         &plan,
         &candidates,
         &calibration.calibration,
         &params,
-        truth.map(|(folder, (depth_mm, lit))| Truth {
-            folder,
-            depth_mm,
-            lit,
-        }),
+        truth.as_ref(),
     )?;
     let out = staged.commit()?;
-    let (surface, summary) = (&scanned.surface, &scanned.summary);
-    eprintln!(
-        "scanned {} ({}x{}): {} points of {} pixels from {} candidates ({} in the volume); {} {:.2} s, \
-         triangulation {:.2} s, selection {:.2} s -> {}",
-        candidates.source,
-        surface.width,
-        surface.height,
-        summary.points,
-        surface.width * surface.height,
-        summary.candidates,
-        summary.candidates_in_volume,
-        if candidates.decode.is_some() { "decode" } else { "reading" },
-        candidates.seconds,
-        summary.triangulate_seconds,
-        summary.select_seconds,
-        out.display()
-    );
-    if let Some(d) = &candidates.decode {
-        report_bad_rows(d);
-    }
+    eprintln!("{}", scanned.report(&candidates, &out));
     Ok(())
 }

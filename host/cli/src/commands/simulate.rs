@@ -5,11 +5,10 @@
 use std::path::PathBuf;
 
 use fsm_calibrate::board::Checkerboard;
-use fsm_io::outputs::StagedDir;
 use fsm_io::plan_file::{MethodPlan, Preset};
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
-use fsm_sim::folder::{self, BoardPlacement, BoardPoseFolder, SPREAD};
+use fsm_sim::folder::{self, BoardPlacement, BoardPoseFolder, Rendering, SPREAD};
 use fsm_sim::scene::presets::NAMES;
 use fsm_sim::target::PrintedBoard;
 use fsm_sim::{Scene, System};
@@ -19,7 +18,7 @@ pub const CHECKERBOARD: &str = "checkerboard";
 
 /// The plan of board scans when neither --plan nor --preset is given: EFSM, one group, 76
 /// patterns (what the calibration's end-to-end test uses).
-const BOARD_PRESET: &str = "paper-efsm-1";
+const BOARD_PRESET: Preset = Preset::PaperEfsm1;
 
 /// Simulate a scan: the camera's captures of a scene under a plan's patterns.
 ///
@@ -75,13 +74,12 @@ pub struct Args {
     plan: Option<PathBuf>,
     /// A preset plan instead of a file: paper-bfsm, paper-efsm-1 or paper-efsm-2 (one of
     /// the two is required, except for --scene checkerboard: default paper-efsm-1).
-    #[arg(long, value_parser = super::preset_parser())]
-    preset: Option<String>,
-    /// Output folder (created; must not exist or be empty, unless --force).
-    #[arg(long, value_name = "DIR")]
-    out: PathBuf,
+    #[arg(long, value_parser = super::named(Preset::ALL))]
+    preset: Option<Preset>,
+    #[command(flatten)]
+    output: super::OutDir,
     /// Camera size WxH (same field of view; the footprint shrinks as it grows).
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = |s: &str| super::parse_size(s, 8))]
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = super::size::<8>)]
     camera: (u32, u32),
     /// Noise seed.
     #[arg(long, default_value_t = 1)]
@@ -94,9 +92,6 @@ pub struct Args {
     /// Write a 16-bit PNG per frame under images/ instead of a row dump.
     #[arg(long)]
     images: bool,
-    /// Replace the output folder if it exists and is not empty.
-    #[arg(long)]
-    force: bool,
     /// Checkerboard: the target definition file (default the bench's 9 x 6, 20 mm).
     #[arg(long, value_name = "FILE")]
     board: Option<PathBuf>,
@@ -115,39 +110,34 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let rendering = Rendering {
+        system: System::bench_with_camera(args.camera.0, args.camera.1),
+        seed: args.seed,
+        supersampling: args.supersampling,
+    };
+    let progress = Progress::stderr();
     if args.scene == CHECKERBOARD {
-        return run_board(args);
+        return run_board(&args, &rendering, &progress);
     }
-    for (option, given) in [
+    let board_options = [
         ("--board", args.board.is_some()),
         ("--board-pose", args.board_pose.is_some()),
         ("--board-poses", args.board_poses.is_some()),
-    ] {
-        if given {
-            return Err(Error::Usage(format!(
-                "{option} is for --scene {CHECKERBOARD}, not --scene {}",
-                args.scene
-            )));
-        }
+    ];
+    if let Some((option, _)) = board_options.iter().find(|(_, given)| *given) {
+        return Err(Error::Usage(format!(
+            "{option} is for --scene {CHECKERBOARD}, not --scene {}",
+            args.scene
+        )));
     }
     let plan = plan_of(&args, None)?;
-    let scene = Scene::by_name(&args.scene).map_err(Error::from)?;
-    let system = System::bench_with_camera(args.camera.0, args.camera.1);
-    let staged = StagedDir::create(&args.out, args.force)?;
-    let progress = Progress::stderr();
-    let capture = folder::capture_of(
-        &scene,
-        plan.patterns(),
-        &system,
-        args.seed,
-        args.supersampling,
-        &progress,
-    )?;
-    folder::write_scene(
+    let scene = Scene::by_name(&args.scene)?;
+    let staged = args.output.stage()?;
+    let capture = folder::write_scene(
         staged.path(),
+        &scene,
         &plan,
-        &system,
-        &capture,
+        &rendering,
         args.images,
         &progress,
     )?;
@@ -164,52 +154,35 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The plan of `--plan` (as it is), or of `--preset` (or `default`, a preset name) stating
-/// the simulated camera's sensor, else an error.
-fn plan_of(args: &Args, default: Option<&str>) -> Result<MethodPlan> {
-    Ok(match (&args.plan, args.preset.as_deref().or(default)) {
-        (Some(path), _) => fsm_io::plan_file::read_method_plan(path)?,
-        (None, Some(name)) => MethodPlan::Fsm(folder::preset_plan(
-            Preset::from_name(name).expect("clap checked the name"),
-        )),
-        (None, None) => {
-            return Err(Error::Usage(format!(
-                "--scene {}: give the plan with --plan FILE or --preset NAME",
-                args.scene
-            )))
-        }
-    })
+/// The plan of `--plan` (as it is), or of `--preset` (or `default`) stating the simulated
+/// camera's sensor, else an error.
+fn plan_of(args: &Args, default: Option<Preset>) -> Result<MethodPlan> {
+    match (&args.plan, args.preset.or(default)) {
+        (Some(path), _) => fsm_io::plan_file::read_method_plan(path),
+        (None, Some(preset)) => Ok(MethodPlan::Fsm(folder::preset_plan(preset))),
+        (None, None) => Err(Error::Usage(format!(
+            "--scene {}: give the plan with --plan FILE or --preset NAME",
+            args.scene
+        ))),
+    }
 }
 
 /// `--scene checkerboard`: one pose folder (`--board-pose`) or `--board-poses` of them.
-fn run_board(args: Args) -> Result<()> {
+fn run_board(args: &Args, rendering: &Rendering, progress: &Progress) -> Result<()> {
     let board = match &args.board {
-        Some(path) => {
-            PrintedBoard::new(Checkerboard::read(path).map_err(|e| Error::Usage(e.to_string()))?)
-        }
+        Some(path) => PrintedBoard::new(Checkerboard::read(path)?),
         None => PrintedBoard::bench(),
     };
     // The board's scans are decoded for calibration, which takes FSM plans.
-    let plan = plan_of(&args, Some(BOARD_PRESET))?
+    let plan = plan_of(args, Some(BOARD_PRESET))?
         .fsm()
         .map_err(|source| Error::PlanFile {
             path: args.plan.clone().unwrap_or_default(),
             source,
         })?;
-    let system = System::bench_with_camera(args.camera.0, args.camera.1);
-    let poses: Vec<BoardPoseFolder> = match (args.board_pose, args.board_poses) {
-        (Some(p), _) => vec![BoardPoseFolder {
-            label: format!("--board-pose {p}"),
-            folder: None,
-            placement: p,
-        }],
-        (None, Some(n)) => (SPREAD[..n as usize].iter().enumerate())
-            .map(|(i, p)| BoardPoseFolder {
-                label: format!("--board-poses: pose {} ({p})", i + 1),
-                folder: Some(format!("pose-{:02}", i + 1)),
-                placement: *p,
-            })
-            .collect(),
+    let poses = match (args.board_pose, args.board_poses) {
+        (Some(p), _) => BoardPoseFolder::one(p),
+        (None, Some(n)) => BoardPoseFolder::spread(n as usize),
         (None, None) => {
             return Err(Error::Usage(format!(
                 "--scene {CHECKERBOARD}: give the board's pose with --board-pose \
@@ -217,33 +190,19 @@ fn run_board(args: Args) -> Result<()> {
             )))
         }
     };
-    let staged = StagedDir::create(&args.out, args.force)?;
+    let staged = args.output.stage()?;
     let t0 = std::time::Instant::now();
-    let progress = Progress::stderr();
-    let (seed, rays) = (args.seed, args.supersampling);
+    let done = |pose: &BoardPoseFolder, seed| {
+        eprintln!("{pose}, seed {seed} ({:.1} s)", t0.elapsed().as_secs_f64())
+    };
     folder::write_board_poses(
         staged.path(),
         &plan,
-        &system,
+        rendering,
         &board,
         &poses,
-        seed,
-        rays,
-        &progress,
-        |pose, seed| {
-            let p = &pose.placement;
-            eprintln!(
-                "{}: yaw {} pitch {} roll {} deg, centre ({}, {}, {}) mm, seed {seed} ({:.1} s)",
-                pose.folder.as_deref().unwrap_or("pose"),
-                p.yaw_deg,
-                p.pitch_deg,
-                p.roll_deg,
-                p.centre_mm[0],
-                p.centre_mm[1],
-                p.centre_mm[2],
-                t0.elapsed().as_secs_f64()
-            )
-        },
+        progress,
+        done,
     )?;
     let out = staged.commit()?;
     let ((w, h), grid) = (args.camera, &board.grid);

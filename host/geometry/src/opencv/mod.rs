@@ -199,6 +199,9 @@ pub enum LengthUnit {
 }
 
 impl LengthUnit {
+    /// Every unit, in the order of the CLI's `--unit` values.
+    pub const ALL: [LengthUnit; 3] = [LengthUnit::Mm, LengthUnit::Cm, LengthUnit::M];
+
     /// Millimetres per unit.
     pub fn mm(self) -> f64 {
         match self {
@@ -219,9 +222,7 @@ impl LengthUnit {
 
     /// The unit of a name.
     pub fn from_name(name: &str) -> Option<LengthUnit> {
-        [LengthUnit::Mm, LengthUnit::Cm, LengthUnit::M]
-            .into_iter()
-            .find(|u| u.name() == name)
+        LengthUnit::ALL.into_iter().find(|u| u.name() == name)
     }
 }
 

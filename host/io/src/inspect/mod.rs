@@ -278,6 +278,26 @@ pub fn draw_pixel(
     Ok(view.candidates)
 }
 
+/// The candidates of pixel `(x, y)` ([`draw_pixel`]'s) as `fsm inspect --pixel` prints them:
+/// one a line, with the group and block each came from for an FSM plan.
+pub fn candidate_lines(plan: &MethodPlan, x: u32, y: u32, candidates: &HostCandidates) -> String {
+    if candidates.candidates.is_empty() {
+        return format!("pixel ({x}, {y}): no candidate\n");
+    }
+    let mut text = String::new();
+    for c in &candidates.candidates {
+        let origin = match plan {
+            MethodPlan::Fsm(_) => format!(", group {}, block {}", c.group.number(), c.block),
+            _ => String::new(),
+        };
+        text += &format!(
+            "pixel ({x}, {y}): column {:.3}, amplitude {:.1} DN{origin}\n",
+            c.column, c.amplitude
+        );
+    }
+    text
+}
+
 /// Draws row `y` of `capture` as `plan`'s method shows it into the PNG `out` (FSM: the
 /// [`row_map`] of `group`, group 1 by default; the others, which have no groups: every pixel's
 /// candidates, [`sequence::plot_sequence_row`]).
@@ -662,6 +682,35 @@ pub fn plot_row_map(plan: &ScanPlan, map: &RowMap, out: &Path) -> Result<()> {
 mod tests {
     use super::*;
     use fsm_core::GroupCount;
+
+    #[test]
+    fn candidates_are_listed_one_a_line() {
+        let mut candidates = HostCandidates::new();
+        let fsm = MethodPlan::Fsm(ScanPlan::paper_efsm(GroupCount::Two));
+        assert_eq!(
+            candidate_lines(&fsm, 3, 4, &candidates),
+            "pixel (3, 4): no candidate\n"
+        );
+        for (column, block) in [(300.25, 4), (512.0, 8)] {
+            let c = fsm_core::Candidate {
+                column,
+                amplitude: 1200.0 / block as f32,
+                groups: fsm_core::GroupSet(1),
+                group: Group::Two,
+                peak: 0,
+                block,
+            };
+            candidates.candidates.push(c).unwrap();
+        }
+        assert_eq!(
+            candidate_lines(&fsm, 3, 4, &candidates),
+            "pixel (3, 4): column 300.250, amplitude 300.0 DN, group 2, block 4\n\
+             pixel (3, 4): column 512.000, amplitude 150.0 DN, group 2, block 8\n"
+        );
+        let line_scan = crate::plan_file::MethodKind::LineScan.plan(768, 64, GroupCount::Two);
+        let text = candidate_lines(&line_scan, 3, 4, &candidates);
+        assert!(text.starts_with("pixel (3, 4): column 300.250, amplitude 300.0 DN\n"));
+    }
 
     /// A row of `width` pixels, pixel `x` lit at column `column(x)` (1200 DN) over 100 DN.
     fn lit_row(plan: &ScanPlan, width: usize, column: impl Fn(usize) -> u32) -> Vec<u16> {

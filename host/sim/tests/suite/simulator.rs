@@ -460,14 +460,16 @@ proptest! {
 
 #[test]
 fn a_simulated_folder_reports_the_transport_and_the_rendering_row_by_row() {
-    let system = System::bench_with_camera(40, 30);
+    let rendering = fsm_sim::folder::Rendering {
+        system: System::bench_with_camera(40, 30),
+        seed: 1,
+        supersampling: 1,
+    };
     let plan = fsm_io::plan_file::MethodPlan::Fsm(ScanPlan::paper_efsm(GroupCount::One));
     let scene = Scene::preset("plane").unwrap();
     let progress = Progress::hidden();
-    let capture =
-        fsm_sim::folder::capture_of(&scene, plan.patterns(), &system, 1, 1, &progress).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    fsm_sim::folder::write_scene(dir.path(), &plan, &system, &capture, true, &progress).unwrap();
+    fsm_sim::folder::write_scene(dir.path(), &scene, &plan, &rendering, true, &progress).unwrap();
     let frames = plan.frame_count() as u64;
     let stage = |message, total| Stage {
         message,
@@ -481,5 +483,41 @@ fn a_simulated_folder_reports_the_transport_and_the_rendering_row_by_row() {
             stage("rendering rows", 30),
             stage("writing images", frames)
         ]
+    );
+}
+
+/// `truth/` as `fsm scan --truth` reads it back: the depth and the directly lit pixels of the
+/// capture, refused (naming the file and both sizes) by a camera of another size.
+#[test]
+fn the_truth_folder_reads_back_for_the_scan() {
+    let system = System::bench_with_camera(40, 30);
+    let rendering = fsm_sim::folder::Rendering {
+        system: system.clone(),
+        seed: 1,
+        supersampling: 1,
+    };
+    let plan = ScanPlan::paper_efsm(GroupCount::One);
+    let scene = Scene::preset("plane_mirror").unwrap();
+    let progress = Progress::hidden();
+    let capture = fsm_sim::folder::capture_of(&scene, &plan, &rendering, &progress).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let truth_dir = dir.path().join("truth");
+    fsm_sim::folder::write_truth(&capture, &truth_dir).unwrap();
+    let truth = fsm_scan::pipeline::Truth::read(&truth_dir, &system.calibration.camera).unwrap();
+    let pixels: Vec<_> = capture.ground_truth().iter().collect();
+    assert_eq!((truth.depth_mm.len(), truth.lit.len()), (40 * 30, 40 * 30));
+    for (x, y, p) in pixels {
+        let i = (y * 40 + x) as usize;
+        assert_eq!(truth.lit[i], p.direct_column.is_finite(), "({x}, {y})");
+        assert!(truth.depth_mm[i] == p.point_mm[2] as f32 || truth.depth_mm[i].is_nan());
+    }
+    let other = System::bench_with_camera(20, 15);
+    let e = fsm_scan::pipeline::Truth::read(&truth_dir, &other.calibration.camera)
+        .err()
+        .expect("another size is refused")
+        .to_string();
+    assert!(
+        e.contains("depth.tiff") && e.contains("40x30") && e.contains("20x15"),
+        "{e}"
     );
 }

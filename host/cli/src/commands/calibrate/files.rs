@@ -1,27 +1,12 @@
 //! `fsm calibrate import|export`: OpenCV FileStorage calibrations of other tools.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use clap::builder::{PossibleValuesParser, TypedValueParser as _};
 use fsm_geometry::opencv::{self, ImportOptions, LengthUnit, Syntax, Tool};
 use fsm_geometry::Calibration;
 use fsm_io::{Error, Result};
 
-/// `--format`: the tools whose files are read and written.
-fn tool_parser() -> impl clap::builder::TypedValueParser<Value = Tool> {
-    PossibleValuesParser::new(Tool::ALL.map(Tool::name)).map(|name| {
-        Tool::ALL
-            .into_iter()
-            .find(|t| t.name() == name)
-            .expect("listed")
-    })
-}
-
-/// `--unit`.
-fn unit_parser() -> impl clap::builder::TypedValueParser<Value = LengthUnit> {
-    PossibleValuesParser::new(["mm", "cm", "m"])
-        .map(|name| LengthUnit::from_name(&name).expect("listed"))
-}
+use crate::commands::{named, size};
 
 const IMPORT_HELP: &str = "\
 The file is YAML or XML, recognised from its text. All three tools calibrate with OpenCV's
@@ -58,7 +43,7 @@ pub struct ImportArgs {
     /// X_p = Rp·X_c + Tp, mm), scan3d-capture (Moreno & Taubin: cam_K cam_kc proj_K proj_kc R T,
     /// YAML; mm), procam (kamino410's procam-calibration: cam_int cam_dist proj_int proj_dist
     /// roration translation, XML; in the unit of its chessboard squares).
-    #[arg(long, value_parser = tool_parser())]
+    #[arg(long, value_parser = named(Tool::ALL.map(|t| (t, t.name()))))]
     format: Tool,
     /// The tool's calibration file.
     #[arg(long = "in", value_name = "FILE")]
@@ -71,11 +56,11 @@ pub struct ImportArgs {
     force: bool,
     /// Camera image size, pixels (required unless the file has it: SLStudio's
     /// frameWidth/frameHeight, procam's img_shape).
-    #[arg(long, value_name = "WxH", value_parser = |s: &str| crate::commands::parse_size(s, 1))]
+    #[arg(long, value_name = "WxH", value_parser = size::<1>)]
     camera_size: Option<(u32, u32)>,
     /// Projector size, columns x rows (required unless the file has it: SLStudio's
     /// screenResX/screenResY). The columns are the plan's projector columns.
-    #[arg(long, value_name = "COLSxROWS", value_parser = |s: &str| crate::commands::parse_size(s, 1))]
+    #[arg(long, value_name = "COLSxROWS", value_parser = size::<1>)]
     projector_size: Option<(u32, u32)>,
     /// Nearest depth of the measurement volume, mm along the camera's z axis.
     #[arg(long, value_name = "MM")]
@@ -84,7 +69,7 @@ pub struct ImportArgs {
     #[arg(long, value_name = "MM")]
     far_mm: Option<f64>,
     /// Unit of the file's translation.
-    #[arg(long, default_value = "mm", value_parser = unit_parser())]
+    #[arg(long, default_value = "mm", value_parser = named(LengthUnit::ALL.map(|u| (u, u.name()))))]
     unit: LengthUnit,
 }
 
@@ -96,7 +81,7 @@ pub struct ExportArgs {
     #[arg(long, value_name = "FILE")]
     calibration: PathBuf,
     /// Which tool's key set to write.
-    #[arg(long, value_parser = tool_parser())]
+    #[arg(long, value_parser = named(Tool::ALL.map(|t| (t, t.name()))))]
     format: Tool,
     /// The file to write (.yml, .yaml or .xml).
     #[arg(long, value_name = "FILE")]
@@ -105,25 +90,22 @@ pub struct ExportArgs {
     #[arg(long)]
     force: bool,
     /// Unit of the written translation.
-    #[arg(long, default_value = "mm", value_parser = unit_parser())]
+    #[arg(long, default_value = "mm", value_parser = named(LengthUnit::ALL.map(|u| (u, u.name()))))]
     unit: LengthUnit,
 }
 
-fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
-    match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
+/// Refuses to write `out` over `input`, whatever --force says: `--out OUT is {why}`.
+fn refuse_same_file(input: &Path, out: &Path, why: &str) -> Result<()> {
+    match (input.canonicalize(), out.canonicalize()) {
+        (Ok(a), Ok(b)) if a == b => Err(Error::Usage(format!("--out {} is {why}", out.display()))),
+        _ => Ok(()),
     }
 }
 
 /// Runs `fsm calibrate import`.
 pub fn import(args: ImportArgs) -> Result<()> {
-    if same_file(&args.input, &args.out) {
-        return Err(Error::Usage(format!(
-            "--out {} is the input file: write our calibration to another file",
-            args.out.display()
-        )));
-    }
+    let why = "the input file: write our calibration to another file";
+    refuse_same_file(&args.input, &args.out, why)?;
     fsm_io::outputs::check_file_target(&args.out, args.force)?;
     let options = ImportOptions {
         camera_size: args.camera_size,
@@ -132,52 +114,29 @@ pub fn import(args: ImportArgs) -> Result<()> {
         far_mm: args.far_mm,
         unit: args.unit,
     };
-    let tool = args.format;
-    let imported =
-        opencv::read(&args.input, tool, &options).map_err(|e| Error::Usage(e.to_string()))?;
-    imported
-        .calibration
-        .write(&args.out)
-        .map_err(|e| Error::Usage(e.to_string()))?;
+    let imported = opencv::read(&args.input, args.format, &options)?;
+    imported.calibration.write(&args.out)?;
     for note in &imported.notes {
         eprintln!("{note}");
     }
-    let c = &imported.calibration;
     eprintln!(
-        "wrote {}: {} calibration from {}; camera {}x{}, projector {} columns x {} rows, baseline {:.3} mm, checksum {:08x}",
+        "wrote {}: {} calibration from {}; {}",
         args.out.display(),
-        tool,
+        args.format,
         args.input.display(),
-        c.camera.width_px(),
-        c.camera.height_px(),
-        c.projector.width_px(),
-        c.projector.height_px(),
-        c.pose.baseline_mm(),
-        c.checksum()
+        imported.calibration.summary()
     );
     Ok(())
 }
 
 /// Runs `fsm calibrate export`.
 pub fn export(args: ExportArgs) -> Result<()> {
-    if Syntax::of_path(&args.out).is_none() {
-        return Err(Error::Usage(format!(
-            "--out {}: the name must end in .yml, .yaml or .xml (OpenCV picks the syntax by it)",
-            args.out.display()
-        )));
-    }
-    if same_file(&args.calibration, &args.out) {
-        return Err(Error::Usage(format!(
-            "--out {} is the calibration being exported: write to another file",
-            args.out.display()
-        )));
-    }
+    let why = "the calibration being exported: write to another file";
+    refuse_same_file(&args.calibration, &args.out, why)?;
     fsm_io::outputs::check_file_target(&args.out, args.force)?;
-    let calibration =
-        Calibration::read(&args.calibration).map_err(|e| Error::Usage(e.to_string()))?;
+    let calibration = Calibration::read(&args.calibration)?;
     let tool = args.format;
-    opencv::write(&calibration, tool, &args.out, args.unit)
-        .map_err(|e| Error::Usage(e.to_string()))?;
+    opencv::write(&calibration, tool, &args.out, args.unit)?;
     if tool == Tool::SlStudio && Syntax::of_path(&args.out) == Some(Syntax::Yaml) {
         eprintln!("note: SLStudio loads only .xml calibration files");
     }

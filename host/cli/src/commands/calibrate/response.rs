@@ -2,11 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::builder::PossibleValuesParser;
 use fsm_calibrate::response::{self, ResponseModel, ResponseReport};
 use fsm_io::image_files::ImageFormat;
 use fsm_io::projector_response::{self, GreyLevelManifest};
-use fsm_io::{Error, Result};
+use fsm_io::Result;
 
 use crate::commands::BitDepth;
 
@@ -74,9 +73,8 @@ pub struct Args {
     out: Option<PathBuf>,
     /// Which response to write: the power law, the measured table, or (auto) the power law if
     /// its RMS residual is at most 0.5% of full light, the table otherwise.
-    #[arg(long, default_value = "auto",
-          value_parser = PossibleValuesParser::new(ResponseModel::ALL.map(|(_, n)| n)))]
-    model: String,
+    #[arg(long, default_value = "auto", value_parser = crate::commands::named(ResponseModel::ALL))]
+    model: ResponseModel,
     /// Also store the response in this calibration file (its [projector_response] section,
     /// replacing any; the file is rewritten whole).
     #[arg(long, value_name = "FILE")]
@@ -97,25 +95,12 @@ pub fn run(args: Args) -> Result<()> {
     let images = args.images.as_deref().expect("clap requires a mode");
     let codes = match &args.manifest {
         Some(path) => GreyLevelManifest::read(path)?.fractions(),
-        None => {
-            let max = if args.sixteen_bit {
-                u16::MAX
-            } else {
-                u8::MAX as u16
-            };
-            projector_response::grey_level_codes(args.levels, max)
-                .map_err(Error::Usage)?
-                .iter()
-                .map(|&c| c as f64 / max as f64)
-                .collect()
-        }
+        None => projector_response::grey_level_fractions(args.levels, args.sixteen_bit)?,
     };
     let estimate =
         projector_response::estimate_from_folder(images, &codes, args.bit_depth.bit_depth)?;
-    let model = ResponseModel::from_name(&args.model).expect("clap checked the name");
-    let chosen = response::choose(&estimate, model);
-    let bits = (estimate.saturation_code as u32 + 1).trailing_zeros() as u8;
-    say!("{}", estimate.table(images, bits));
+    let chosen = response::choose(&estimate, args.model);
+    say!("{}", estimate.table(images));
     let what = &chosen.what;
     if let Some(out) = &args.out {
         let comment = response::file_comment(&estimate, images, codes.len());
@@ -127,15 +112,8 @@ pub fn run(args: Args) -> Result<()> {
         sayln!("stored {what} in {}", path.display());
     }
     if let Some(path) = &args.json {
-        let report = ResponseReport {
-            images: images.display().to_string(),
-            bit_depth: bits,
-            model: if chosen.is_gamma { "gamma" } else { "table" },
-            response_file: args.out.as_ref().map(|p| p.display().to_string()),
-            calibration_file: args.calibration.as_ref().map(|p| p.display().to_string()),
-            estimate: &estimate,
-        };
-        report.write(path)?;
+        let (response_file, calibration) = (args.out.as_deref(), args.calibration.as_deref());
+        ResponseReport::new(images, &estimate, &chosen, response_file, calibration).write(path)?;
         sayln!("wrote {}", path.display());
     }
     Ok(())
@@ -146,11 +124,7 @@ fn write_patterns(args: &Args, out: &Path) -> Result<()> {
         args.width.expect("clap requires --width"),
         args.height.expect("clap requires --height"),
     );
-    let format = if args.tiff {
-        ImageFormat::Tiff
-    } else {
-        ImageFormat::Png
-    };
+    let format = ImageFormat::png_or_tiff(args.tiff);
     let manifest = projector_response::write_grey_level_set(
         out,
         args.levels,
@@ -161,15 +135,8 @@ fn write_patterns(args: &Args, out: &Path) -> Result<()> {
         args.force,
     )?;
     eprintln!(
-        "wrote {} grey-level images of {width}x{height} ({}-bit, codes {}) and {} to {}",
-        manifest.levels.len(),
-        manifest.bit_depth,
-        manifest
-            .levels
-            .iter()
-            .map(|l| l.code.to_string())
-            .collect::<Vec<_>>()
-            .join(", "),
+        "wrote {} and {} to {}",
+        manifest.describe(),
         projector_response::GREY_LEVELS_MANIFEST,
         out.display()
     );

@@ -12,7 +12,7 @@ use fsm_geometry::MeasurementVolume;
 use fsm_io::outputs::write_file;
 use fsm_io::{Error, Result};
 
-use crate::commands::DecodeArgs;
+use crate::commands::{BitDepth, DecodeArgs};
 
 /// The layout of the pose folders, the method and the outputs (shown after the options).
 const TARGET_HELP: &str = "\
@@ -73,6 +73,17 @@ pub struct Args {
     /// Folder for one residual picture per pose (created if missing).
     #[arg(long, value_name = "DIR")]
     residuals: Option<PathBuf>,
+    #[command(flatten)]
+    settings: SettingsArgs,
+    #[command(flatten)]
+    bit_depth: BitDepth,
+    #[command(flatten)]
+    decode: DecodeArgs,
+}
+
+/// The calibration's settings (`fsm_calibrate::CalibrationSettings`).
+#[derive(clap::Args, Debug)]
+struct SettingsArgs {
     /// Projector rows (not measurable from columns; stored in the file).
     #[arg(long, value_name = "ROWS", default_value_t = 1024)]
     projector_rows: u32,
@@ -101,11 +112,28 @@ pub struct Args {
     /// Half-width of the window of decoded pixels fitted around each corner, px.
     #[arg(long, value_name = "PX", default_value_t = 12)]
     window: usize,
-    /// Sensor bit depth of the captured stacks (see `fsm decode --help`).
-    #[arg(long, value_name = "BITS", value_parser = clap::value_parser!(u8).range(1..=16))]
-    bit_depth: Option<u8>,
-    #[command(flatten)]
-    decode: DecodeArgs,
+}
+
+impl SettingsArgs {
+    /// The settings for a camera of `camera` pixels and a projector of `columns` columns:
+    /// the library's defaults, overridden by the options given.
+    fn settings(&self, camera: (u32, u32), columns: u32) -> Result<CalibrationSettings> {
+        let mut settings =
+            CalibrationSettings::new(camera.0, camera.1, columns, self.projector_rows);
+        settings.projector_cy_px = self.projector_cy;
+        if let (Some(near), Some(far)) = (self.near, self.far) {
+            let volume = MeasurementVolume::new(near, far);
+            settings.volume = Some(volume.map_err(|e| Error::Usage(format!("--near/--far: {e}")))?);
+        }
+        settings.camera.fix_k3 = !self.camera_k3;
+        settings.projector.refine_tangential = self.projector_tangential;
+        settings.joint = !self.no_joint;
+        if self.no_dense {
+            settings.dense = None;
+        }
+        settings.local.half_window_px = self.window;
+        Ok(settings)
+    }
 }
 
 /// Runs `fsm calibrate target`.
@@ -113,26 +141,12 @@ pub fn run(args: Args) -> Result<()> {
     for path in std::iter::once(&args.out).chain(&args.report) {
         fsm_io::outputs::check_file_target(path, args.force)?;
     }
-    let board = Checkerboard::read(&args.board).map_err(|e| Error::Usage(e.to_string()))?;
-    let plan = super::super::load_plan(&args.plan)?;
-    if args.poses.len() < fsm_calibrate::zhang::MIN_POSES {
-        return Err(Error::Usage(format!(
-            "{} pose folders given; at least {} are needed (tilted in different directions)",
-            args.poses.len(),
-            fsm_calibrate::zhang::MIN_POSES
-        )));
-    }
-    let volume = match (args.near, args.far) {
-        (Some(near), Some(far)) => Some(
-            MeasurementVolume::new(near, far)
-                .map_err(|e| Error::Usage(format!("--near/--far: {e}")))?,
-        ),
-        _ => None,
-    };
+    let board = Checkerboard::read(&args.board)?;
+    let plan = fsm_io::plan_file::read_plan(&args.plan)?;
     let poses = observe_poses(
         &args.poses,
         &plan,
-        args.bit_depth,
+        args.bit_depth.bit_depth,
         &args.decode.options(),
         &board,
         |dir, corners, decoded| {
@@ -144,17 +158,9 @@ pub fn run(args: Args) -> Result<()> {
         },
     )?;
     let (w, h) = (poses.width, poses.height);
-    let mut settings =
-        CalibrationSettings::new(w, h, plan.projector_columns as u32, args.projector_rows);
-    settings.projector_cy_px = args.projector_cy;
-    settings.volume = volume;
-    settings.camera.fix_k3 = !args.camera_k3;
-    settings.projector.refine_tangential = args.projector_tangential;
-    settings.joint = !args.no_joint;
-    if args.no_dense {
-        settings.dense = None;
-    }
-    settings.local.half_window_px = args.window;
+    let settings = args
+        .settings
+        .settings((w, h), plan.projector_columns as u32)?;
     let (calibration, report) = calibrate(&board.corners_mm(), &poses.observations, &settings)
         .map_err(|e| Error::Usage(format!("calibration failed: {e}")))?;
 
