@@ -14,6 +14,7 @@
 //! | everything `fsm scan` writes | [`output`] | |
 //! | the whole scan, candidates in, a written folder out | [`pipeline`] | |
 
+pub mod continuation;
 pub mod decoded;
 pub mod metrics;
 pub mod mirror;

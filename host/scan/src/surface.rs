@@ -7,6 +7,7 @@ use fsm_io::candidate_image::CandidateImage;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::continuation::{LocalPlane, SCATTER_FACTOR};
 use crate::mirror::{mirror_images, Mirror, MirrorParams};
 use crate::ply::PlyPoint;
 use crate::selection::{
@@ -290,6 +291,90 @@ impl Surface {
     }
 }
 
+impl Surface {
+    /// Gives the pixels whose choice the projector cannot light ([`NoPoint::Fictitious`])
+    /// another of their candidates where it continues their neighbours' surface; returns them.
+    ///
+    /// Grown outwards from the points kept, breadth first: a candidate continues the surface
+    /// when it lies within [`SCATTER_FACTOR`] scatters of the plane of the points around it
+    /// ([`LocalPlane`]), and only where that tolerance is below `ε/4`, so that the light of
+    /// another surface (`ε` or more away, the selection's discrimination distance) cannot pass
+    /// for it. (Up to `ε/2`, the glossy V gained 17 wrong points on one seed; up to `ε/4`, none
+    /// on three.) A wall beside an object's shadow, where a mirror's light continued the
+    /// fictitious surface of the shadow and won the selection, gets its direct light back
+    /// (`sphere_mirror`, EFSM: 94.9% of the directly lit pixels with a right point, 97.1%
+    /// after); the shadow itself, which holds no light on the wall, does not.
+    fn regrow_fictitious(&mut self, field: &CandidateField, epsilon_mm: f32) -> Vec<usize> {
+        let (w, h) = (self.width, self.height);
+        let mut open: Vec<bool> = self
+            .no_point
+            .iter()
+            .map(|r| *r == Some(NoPoint::Fictitious))
+            .collect();
+        let touches = |s: &Surface, i: usize| {
+            neighbours(i, w, h)
+                .flatten()
+                .any(|j| s.point_mm[j].is_some())
+        };
+        let mut queue: std::collections::VecDeque<usize> = (0..w * h)
+            .filter(|&i| open[i] && touches(self, i))
+            .collect();
+        let mut taken = Vec::new();
+        while let Some(i) = queue.pop_front() {
+            if !open[i] {
+                continue;
+            }
+            let Some(plane) = LocalPlane::around(&self.point_mm, w, i)
+                .filter(|p| SCATTER_FACTOR * p.scatter_mm <= 0.25 * epsilon_mm as f64)
+            else {
+                continue;
+            };
+            let best = field
+                .labels(i % w, i / w)
+                .iter()
+                .map(|l| (plane.deviation(l.point_mm), *l))
+                .filter(|(d, _)| *d <= SCATTER_FACTOR)
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let Some((_, label)) = best else { continue };
+            open[i] = false;
+            taken.push(i);
+            // The dropped choice's light went to the indirect image; it is all there now.
+            self.point_mm[i] = Some(label.point_mm);
+            self.column[i] = Some(label.column);
+            self.no_point[i] = None;
+            self.direct[i] = label.amplitude;
+            self.indirect[i] -= label.amplitude;
+            queue.extend(neighbours(i, w, h).flatten().filter(|&j| open[j]));
+        }
+        taken
+    }
+
+    /// The regrown pixels' points face the visibility test and the mirrors found, as the
+    /// selection's choices did; a regrown point that fails either goes, for that reason.
+    fn retest(&mut self, calibration: &Calibration, regrown: &[usize], params: &SelectionParams) {
+        let fictitious = fictitious_points(
+            calibration,
+            self.width,
+            self.height,
+            &self.point_mm,
+            &VisibilityParams::for_epsilon(params.epsilon_mm),
+        );
+        let behind_mm = MirrorParams::for_epsilon(params.epsilon_mm).behind_mm;
+        for &i in regrown {
+            let point = self.point_mm[i].expect("regrown");
+            if fictitious[i] {
+                self.drop_point(i, NoPoint::Fictitious);
+            } else if self
+                .mirrors
+                .iter()
+                .any(|m| m.hides_from(calibration, point, behind_mm))
+            {
+                self.drop_point(i, NoPoint::BehindMirror);
+            }
+        }
+    }
+}
+
 impl SelectionParams {
     /// Defaults for a calibrated system: the pixel footprint at the middle of the measurement
     /// volume, depth over the camera's focal length.
@@ -345,6 +430,11 @@ impl Surface {
                 &decoded.candidates,
                 &MirrorParams::for_epsilon(params.epsilon_mm),
             );
+            let regrown = surface.regrow_fictitious(&field, params.epsilon_mm);
+            surface.retest(calibration, &regrown, params);
+            // The regrown points are rated and filtered like the rest.
+            surface.rate(decoded.column_noise_dn);
+            surface.drop_below(params.min_quality);
         }
         if let Some(edges) = edges {
             surface.drop_edges(&edges);
@@ -436,5 +526,46 @@ mod tests {
         let a: &[(f32, f32)] = &[(0.0, 400.0), (0.0, 450.0)];
         let b: &[(f32, f32)] = &[(0.0, 450.0), (0.0, 400.0)];
         assert_eq!(edges_of([a, a, a, b, b, b]), [false; 6]);
+    }
+
+    #[test]
+    fn a_choice_the_projector_cannot_light_gives_way_to_the_light_that_continues_the_wall() {
+        // A 7 × 7 wall at 500 mm (with a scatter of a few µm); pixels 24 and 40 also hold a
+        // mirror's light that triangulates 30 mm nearer, 40 nothing else (its wall is in a
+        // shadow).
+        let wall = |x: usize, y: usize| 500.0 + 0.004 * ((x * 7 + y * 3) % 5) as f32;
+        let label = |x: usize, y: usize, z: f32, amplitude: f32| Label {
+            point_mm: [x as f32, y as f32, z],
+            amplitude,
+            column: z,
+        };
+        let field = CandidateField::from_fn(7, 7, |x, y| {
+            let mirror = label(x, y, 470.0, 300.0);
+            match y * 7 + x {
+                24 => vec![mirror, label(x, y, wall(x, y), 100.0)],
+                40 => vec![mirror],
+                _ => vec![label(x, y, wall(x, y), 100.0)],
+            }
+        });
+        let params = SelectionParams::for_footprint(0.5);
+        let mut s = Surface::select(&field, &[None; 49], &params);
+        // Both chose the mirror's light, and the visibility test took it.
+        for i in [24, 40] {
+            s.point_mm[i] = Some(label(i % 7, i / 7, 470.0, 300.0).point_mm);
+            s.column[i] = Some(470.0);
+            s.direct[i] = 300.0;
+            s.indirect[i] = if i == 24 { 100.0 } else { 0.0 };
+            s.drop_point(i, NoPoint::Fictitious);
+        }
+        assert_eq!(s.regrow_fictitious(&field, params.epsilon_mm), vec![24]);
+        assert_eq!(s.point_mm[24], Some([3.0, 3.0, wall(3, 3)]));
+        assert_eq!(
+            (s.no_point[24], s.direct[24], s.indirect[24]),
+            (None, 100.0, 300.0)
+        );
+        assert_eq!(
+            (s.point_mm[40], s.no_point[40]),
+            (None, Some(NoPoint::Fictitious))
+        );
     }
 }

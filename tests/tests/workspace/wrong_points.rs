@@ -68,21 +68,25 @@ fn scan(
 /// count as edges: up to 0.5% on the mirror scenes).
 const BOUNDS: [(&str, &str, f64, f64, f64); 8] = [
     ("sphere_mirror", "BFSM", 0.0015, 0.99, 0.005),
-    ("sphere_mirror", "EFSM x2", 0.0015, 0.95, 0.005),
+    ("sphere_mirror", "EFSM x2", 0.0015, 0.97, 0.005),
     ("plane_mirror", "BFSM", 0.001, 0.99, 0.005),
     ("plane_mirror", "EFSM x2", 0.001, 0.95, 0.005),
     ("vgroove", "BFSM", 0.001, 0.99, 0.001),
     ("vgroove", "EFSM x2", 0.005, 0.99, 0.001),
     // The tests take 8 of the band's 3,946 right points (none before the decoder's runs had
-    // feet, which added right points the edge test now judges; 0.3% of the whole image's).
-    ("vgroove_glossy", "BFSM", 0.025, 0.96, 0.003),
+    // feet, which added right points the edge test now judges; 75 of the whole image's 23,714,
+    // 0.32%).
+    ("vgroove_glossy", "BFSM", 0.025, 0.96, 0.004),
     // EFSM under a broad glossy lobe: the decoder's wrong candidates (issue 12), not the
     // selection's; the edge test takes right points there too (neighbours that chose among
     // wrong candidates look like edges). Bounded so that it cannot get worse unnoticed. Since
     // the decoder reads a run with its feet (issue 12) the whole image is at 5.2% wrong and 77%
     // complete (13.7% and 49% before), and its rows 100..140 hold 263 wrong points (369
     // before); this band scanned alone went from 413 to 685 wrong points and from 32% to 35%
-    // complete (its selection has 40 rows to judge from).
+    // complete (its selection has 40 rows to judge from). Since fictitious choices give way to
+    // a light that continues their neighbours' surface, the band has 800 wrong points and is
+    // 48% complete (its few rows' wrong points are neighbours too); the whole image keeps its
+    // 1,055 wrong points and is 78.3% complete (77.3% before).
     ("vgroove_glossy", "EFSM x2", 0.34, 0.30, 0.16),
 ];
 
@@ -162,4 +166,39 @@ fn every_point_is_right_or_absent_on_a_band_of_each_scene() {
 #[ignore = "whole images: cargo test -p fsm-tests --release --test workspace wrong_points:: -- --ignored --nocapture"]
 fn every_point_is_right_or_absent_on_the_whole_images() {
     right_or_absent(true);
+}
+
+/// The mirror is found at a camera size other than the bench's 320 × 240. At 640 × 480 the
+/// mirror search's tolerances once shrank with the pixel's footprint while its voting grid
+/// stayed 320 × 240: no mirror was found and 4.3% of EFSM's points were virtual images behind it
+/// (seed 3; 0.07% since the tolerances scale with the grid).
+#[test]
+fn the_mirror_is_found_and_what_it_hides_removed_at_640_by_480() {
+    let system = System::bench_with_camera(640, 480);
+    let t = transport("sphere_mirror", &system, 0..480);
+    let f = scan(&t, &ScanPlan::paper_efsm(GroupCount::Two), &system, true);
+    let e = f.errors;
+    println!(
+        "sphere_mirror EFSM x2 640x480: {} points, {} wrong ({:.3}%), {:.2}% complete; {:?}",
+        e.points,
+        e.wrong,
+        100.0 * e.wrong_share(),
+        100.0 * e.completeness(),
+        f.no_point
+    );
+    assert!(
+        f.no_point.behind_mirror > 0,
+        "no mirror found: {:?}",
+        f.no_point
+    );
+    assert!(
+        e.wrong_share() <= 0.0015,
+        "{:.3}% wrong",
+        100.0 * e.wrong_share()
+    );
+    assert!(
+        e.completeness() >= 0.97,
+        "{:.2}% complete",
+        100.0 * e.completeness()
+    );
 }
