@@ -1,10 +1,15 @@
 //! Whether a candidate continues the surface a pixel's neighbours measured.
 //!
-//! A plane fitted to the depths of the points around a pixel predicts the pixel's depth; its
+//! A plane fitted to the depths of the points near a pixel predicts the pixel's depth; its
 //! scatter about the plane (the points' noise and the surface's curvature over the window)
 //! says how far a point of the same surface may lie from the prediction. A candidate within
-//! [`SCATTER_FACTOR`] times that continues the surface. A wrong light is off by a fraction of
-//! a column or more, many times the noise of a measured point.
+//! [`SCATTER_FACTOR`] times that (widened by the prediction's own uncertainty, which is as
+//! large as the scatter where the plane extrapolates from one side) continues the surface. A
+//! wrong light is off by a fraction of a column or more, many times the noise of a point.
+//!
+//! The plane is trusted only where three scatters stay below `ε/4`
+//! ([`LocalPlane::discriminates`]): then the light of another surface, `ε` or more away (the
+//! selection's discrimination distance), cannot pass for this one.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -18,19 +23,57 @@ pub const HALF_WINDOW_PX: usize = 2;
 /// of freedom for its scatter.
 pub const MIN_NEIGHBOURS: usize = 6;
 
-/// The plane of the points around a pixel.
+/// Which neighbours of a pixel, within [`HALF_WINDOW_PX`], the plane is fitted to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Window {
+    /// All of them.
+    Around,
+    /// The columns left of the pixel.
+    Left,
+    /// The columns right of it.
+    Right,
+    /// The rows above it.
+    Above,
+    /// The rows below it.
+    Below,
+}
+
+impl Window {
+    /// The four one-sided windows.
+    pub const SIDES: [Window; 4] = [Window::Left, Window::Right, Window::Above, Window::Below];
+
+    fn holds(self, dx: isize, dy: isize) -> bool {
+        match self {
+            Window::Around => (dx, dy) != (0, 0),
+            Window::Left => dx < 0,
+            Window::Right => dx > 0,
+            Window::Above => dy < 0,
+            Window::Below => dy > 0,
+        }
+    }
+}
+
+/// The plane of the points near a pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LocalPlane {
     /// The depth the plane predicts at the pixel, camera frame, mm.
     pub depth_mm: f64,
     /// RMS of the neighbours' depths about the plane, mm.
     pub scatter_mm: f64,
+    /// The prediction's variance in units of the scatter's (its leverage): about `1/n` in
+    /// the middle of the window, about 1 one step beyond a one-sided window.
+    pub leverage: f64,
 }
 
 impl LocalPlane {
-    /// The plane of the points (`points[y·width + x]`, camera frame, mm) within
-    /// [`HALF_WINDOW_PX`] of pixel `i`, if at least [`MIN_NEIGHBOURS`] have one.
-    pub fn around(points: &[Option<[f32; 3]>], width: usize, i: usize) -> Option<LocalPlane> {
+    /// The plane of the points (`points[y·width + x]`, camera frame, mm) in `window` of
+    /// pixel `i`, if at least [`MIN_NEIGHBOURS`] have one.
+    pub fn fit(
+        points: &[Option<[f32; 3]>],
+        width: usize,
+        i: usize,
+        window: Window,
+    ) -> Option<LocalPlane> {
         let height = points.len() / width.max(1);
         let (x, y) = ((i % width) as isize, (i / width) as isize);
         let r = HALF_WINDOW_PX as isize;
@@ -40,7 +83,7 @@ impl LocalPlane {
             for dx in -r..=r {
                 let (nx, ny) = (x + dx, y + dy);
                 let inside = nx >= 0 && ny >= 0 && (nx as usize) < width && (ny as usize) < height;
-                if (dx, dy) == (0, 0) || !inside {
+                if !window.holds(dx, dy) || !inside {
                     continue;
                 }
                 let Some(p) = points[ny as usize * width + nx as usize] else {
@@ -63,7 +106,9 @@ impl LocalPlane {
             normal += u * u.transpose();
             rhs += u * (z - z0);
         }
-        let plane = normal.lu().solve(&rhs)?;
+        // A window whose points lie on one line (a single row or column) fixes no plane.
+        let inverse = normal.try_inverse()?;
+        let plane = inverse * rhs;
         let squares: f64 = near
             .iter()
             .map(|&(dx, dy, z)| (z - z0 - plane.dot(&Vector3::new(1.0, dx, dy))).powi(2))
@@ -71,13 +116,21 @@ impl LocalPlane {
         Some(LocalPlane {
             depth_mm: z0 + plane[0],
             scatter_mm: (squares / (n - 3) as f64).sqrt(),
+            leverage: inverse[(0, 0)],
         })
     }
 
-    /// How far `point` (camera frame, mm) lies from the prediction, in scatters; a point
-    /// continues the surface below [`SCATTER_FACTOR`].
+    /// Whether three scatters stay below a quarter of `epsilon_mm`, the selection's
+    /// discrimination distance `ε`: only then does the plane tell its surface from another.
+    pub fn discriminates(&self, epsilon_mm: f32) -> bool {
+        SCATTER_FACTOR * self.scatter_mm <= 0.25 * epsilon_mm as f64
+    }
+
+    /// How far `point` (camera frame, mm) lies from the prediction, in standard deviations of
+    /// a point of the surface there (the scatter, and the prediction's uncertainty); a point
+    /// continues the surface up to [`SCATTER_FACTOR`].
     pub fn deviation(&self, point: [f32; 3]) -> f64 {
-        (point[2] as f64 - self.depth_mm).abs() / self.scatter_mm
+        (point[2] as f64 - self.depth_mm).abs() / (self.scatter_mm * (1.0 + self.leverage).sqrt())
     }
 }
 
@@ -100,7 +153,7 @@ mod tests {
     #[test]
     fn the_plane_of_the_neighbours_predicts_the_depth_and_its_scatter_bounds_a_continuation() {
         let points = tilted_plane(0.01);
-        let plane = LocalPlane::around(&points, 7, 24).expect("24 neighbours");
+        let plane = LocalPlane::fit(&points, 7, 24, Window::Around).expect("24 neighbours");
         // The middle pixel (3, 3) lies at 500.3 mm.
         assert!((plane.depth_mm - 500.3).abs() < 0.01, "{plane:?}");
         assert!(
@@ -121,7 +174,7 @@ mod tests {
                 *p = None;
             }
         }
-        let plane = LocalPlane::around(&points, 7, 24).expect("10 neighbours");
+        let plane = LocalPlane::fit(&points, 7, 24, Window::Around).expect("10 neighbours");
         assert!((plane.depth_mm - 500.3).abs() < 0.02, "{plane:?}");
         // Of those, the four below the middle row are not enough.
         for (i, p) in points.iter_mut().enumerate() {
@@ -129,6 +182,6 @@ mod tests {
                 *p = None;
             }
         }
-        assert_eq!(LocalPlane::around(&points, 7, 24), None);
+        assert_eq!(LocalPlane::fit(&points, 7, 24, Window::Around), None);
     }
 }

@@ -7,7 +7,7 @@ use fsm_io::candidate_image::CandidateImage;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::continuation::{LocalPlane, SCATTER_FACTOR};
+use crate::continuation::{LocalPlane, Window, SCATTER_FACTOR};
 use crate::mirror::{mirror_images, Mirror, MirrorParams};
 use crate::ply::PlyPoint;
 use crate::selection::{
@@ -40,7 +40,9 @@ pub enum NoPoint {
     BehindMirror,
     /// The pixel straddles a depth edge: a neighbour chose a point on another surface, the
     /// pixel holds that surface's light too and the neighbour not the pixel's, so its
-    /// footprint sees both sides and its point may belong to either.
+    /// footprint sees both sides and its point may belong to either. Or its point continues
+    /// none of its neighbours' surfaces ([`Surface::straddles`]): it straddles a crease, and
+    /// its light's centroid lies on neither side.
     Edge,
 }
 
@@ -174,6 +176,38 @@ impl Surface {
                                 .any(|l| near(l.point_mm, own))
                     })
                 })
+            })
+            .collect()
+    }
+
+    /// The pixels whose point continues none of its neighbours' surfaces: of the planes
+    /// fitted to the points on each side of it (left, right, above, below; [`LocalPlane`]),
+    /// those that discriminate (`epsilon_mm`) all predict another depth. Its footprint straddles
+    /// a crease, or an edge the selection's choices do not show: at the corner of a V-groove it
+    /// sees both facets, and its light's centroid lies on neither. A pixel with no side that
+    /// discriminates is not judged.
+    pub fn straddles(&self, epsilon_mm: f32) -> Vec<bool> {
+        (0..self.width * self.height)
+            .into_par_iter()
+            .map(|i| {
+                let Some(point) = self.point_mm[i] else {
+                    return false;
+                };
+                let mut judged = false;
+                for side in Window::SIDES {
+                    let plane = LocalPlane::fit(&self.point_mm, self.width, i, side)
+                        .filter(|p| p.discriminates(epsilon_mm));
+                    if let Some(plane) = plane {
+                        let off_mm = (point[2] as f64 - plane.depth_mm).abs();
+                        if plane.deviation(point) <= SCATTER_FACTOR
+                            || off_mm <= 0.25 * epsilon_mm as f64
+                        {
+                            return false;
+                        }
+                        judged = true;
+                    }
+                }
+                judged
             })
             .collect()
     }
@@ -324,8 +358,8 @@ impl Surface {
             if !open[i] {
                 continue;
             }
-            let Some(plane) = LocalPlane::around(&self.point_mm, w, i)
-                .filter(|p| SCATTER_FACTOR * p.scatter_mm <= 0.25 * epsilon_mm as f64)
+            let Some(plane) = LocalPlane::fit(&self.point_mm, w, i, Window::Around)
+                .filter(|p| p.discriminates(epsilon_mm))
             else {
                 continue;
             };
@@ -438,6 +472,14 @@ impl Surface {
         }
         if let Some(edges) = edges {
             surface.drop_edges(&edges);
+            // Only where the decoder measured each light with a known noise (FSM, line
+            // scanning): the codes of phase shift, Micro Phase Shifting and Code Ensemble name
+            // columns with unwrapping and quantisation errors, for which the comparison reports
+            // every point they decode.
+            if decoded.column_noise_dn.is_some() {
+                let straddling = surface.straddles(params.epsilon_mm);
+                surface.drop_edges(&straddling);
+            }
         }
         let times = StageTimes {
             triangulate_seconds: (triangulated - started).as_secs_f64(),
@@ -567,5 +609,36 @@ mod tests {
             (s.point_mm[40], s.no_point[40]),
             (None, Some(NoPoint::Fictitious))
         );
+    }
+
+    #[test]
+    fn the_pixel_at_a_grooves_corner_whose_light_lies_on_neither_facet_straddles_it() {
+        // A 9 × 9 V-groove: facets falling 1 mm a pixel towards the corner at column 4 (with a
+        // scatter of a few µm). The corner's pixels measured the centroid of both facets'
+        // light, 1.5 mm off the corner, except in row 2, where it is right.
+        let depth = |x: usize, y: usize| {
+            let corner = if x == 4 && y != 2 { 1.5 } else { 0.0 };
+            500.0 - (x as f32 - 4.0).abs() + 0.004 * ((x * 7 + y * 3) % 5) as f32 + corner
+        };
+        let field = CandidateField::from_fn(9, 9, |x, y| {
+            [Label {
+                point_mm: [x as f32, y as f32, depth(x, y)],
+                amplitude: 100.0,
+                column: x as f32,
+            }]
+        });
+        // ε is 2 mm here: a point 0.5 mm (ε/4) or more off every facet's plane is on neither.
+        let params = SelectionParams::for_footprint(0.5);
+        assert_eq!(params.epsilon_mm, 2.0);
+        let mut s = Surface::select(&field, &[None; 81], &params);
+        for i in 0..81 {
+            s.point_mm[i] = Some([(i % 9) as f32, (i / 9) as f32, depth(i % 9, i / 9)]);
+        }
+        let straddling = s.straddles(params.epsilon_mm);
+        let marked: Vec<(usize, usize)> = (0..81)
+            .filter(|&i| straddling[i])
+            .map(|i| (i % 9, i / 9))
+            .collect();
+        assert_eq!(marked, [0, 1, 3, 4, 5, 6, 7, 8].map(|y| (4, y)));
     }
 }
