@@ -218,9 +218,9 @@ pub struct SelectionParams {
     /// Give no point to a pixel whose chosen point the projector cannot light directly
     /// ([`crate::visibility`]): a surface that exists only in reflections.
     pub drop_fictitious: bool,
-    /// Give no point to a pixel that straddles a depth edge
+    /// Give no point to a pixel that straddles a depth edge or a crease
     /// ([`crate::surface::NoPoint::Edge`]): its footprint sees two surfaces, and its point
-    /// may be on either.
+    /// may be on either, or on neither.
     pub drop_edges: bool,
     /// Give no point to a pixel whose chosen light's quality (signal-to-noise ratio,
     /// [`crate::Surface::quality`]) is below this; methods without a quality are not filtered.
