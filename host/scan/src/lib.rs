@@ -7,7 +7,8 @@
 //! | choose the direct candidate of every pixel | [`selection`] | §III-E, eqs. 10–13 |
 //! | drop the chosen points the projector cannot light directly | [`visibility`] | |
 //! | find plane mirrors, drop the virtual images they make | [`mirror`] | |
-//! | drop the pixels that straddle a depth edge | [`surface`] | |
+//! | a pixel whose choice was fictitious takes the candidate that continues its neighbours' surface | [`surface`], [`continuation`] | |
+//! | drop the pixels that straddle a depth edge or a crease | [`surface`], [`continuation`] | |
 //! | the chosen point (or why none), column and direct / indirect light per pixel | [`surface`] | eqs. 12–13 |
 //! | Fig. 9 metrics and column errors against ground truth | [`metrics`] | §VII-B |
 //! | `points.ply` | [`ply`] | |
