@@ -790,6 +790,16 @@ mod tests {
         }
     }
 
+    /// Marsaglia's xorshift64 from `state`: the tests' random layouts, the same on every run.
+    fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        }
+    }
+
     /// `C(v, l)` of every candidate, in the field's order.
     fn data_costs(field: &CandidateField) -> Vec<f32> {
         let w = field.width;
@@ -867,13 +877,7 @@ mod tests {
     fn the_sweeps_give_the_paths_of_one_candidate_and_one_direction_at_a_time_bit_for_bit() {
         // 0 to 9 candidates per pixel (more than one group of lanes, and partial groups), some
         // within ε of their neighbours', some beyond; a xorshift for the layout.
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         let mut counts = Vec::new();
         let mut labels = Vec::new();
         let (w, h) = (23, 17);
@@ -1010,13 +1014,7 @@ mod tests {
     #[test]
     fn the_selection_is_the_plain_one_bit_for_bit() {
         // 0 to 6 candidates per pixel at random points, some within ε of their neighbours'.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         let (w, h) = (31, 19);
         let mut counts = Vec::new();
         let mut labels = Vec::new();
