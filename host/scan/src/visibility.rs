@@ -38,6 +38,7 @@
 
 use fsm_geometry::Calibration;
 use nalgebra::Point3;
+use rayon::prelude::*;
 
 use crate::selection::distance_mm;
 
@@ -106,43 +107,42 @@ pub fn fictitious_points(
         calibration.projector.width_px(),
         calibration.projector.height_px(),
     );
-    let mut fictitious = vec![false; points.len()];
     // Every point in the projector's view; outside its image, no direct light reaches it.
     let projected: Vec<Option<ProjectedPoint>> = points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
+        .par_iter()
+        .map(|p| {
             let p = (*p)?;
             let camera = Point3::new(p[0] as f64, p[1] as f64, p[2] as f64);
             let in_projector = calibration.pose.to_projector(&camera);
-            let uv = calibration.projector.project(&in_projector);
-            match uv {
-                Some(uv) if calibration.projector.contains(uv) => Some(ProjectedPoint {
-                    uv: [uv.x as f32, uv.y as f32],
-                    depth_mm: in_projector.z as f32,
-                }),
-                _ => {
-                    fictitious[i] = true;
-                    None
-                }
-            }
+            let uv = calibration.projector.project(&in_projector)?;
+            calibration.projector.contains(uv).then(|| ProjectedPoint {
+                uv: [uv.x as f32, uv.y as f32],
+                depth_mm: in_projector.z as f32,
+            })
         })
+        .collect();
+    let mut fictitious: Vec<bool> = points
+        .iter()
+        .zip(&projected)
+        .map(|(p, q)| p.is_some() && q.is_none())
         .collect();
 
     let (surface_of, surfaces) = surfaces(width, height, points, &projected, params.reach_mm);
-    let mut fragments = Vec::new();
-    for_each_triangle(width, height, points, &surface_of, params.reach_mm, |t| {
-        let [a, b, c] = t.map(|i| projected[i].expect("triangles join projected points"));
-        rasterise(a, b, c, surface_of[t[0]], columns, rows, &mut fragments);
-    });
-    fragments.sort_unstable_by_key(|f| f.pixel);
-    let lookup = FragmentLookup {
-        fragments: &fragments,
-        columns,
-        rows,
-        tolerance_mm: params.tolerance_mm,
-    };
-
+    // Rendered a row of camera cells at a time; the rows' fragments in order, so that the
+    // fragments are the same for any number of threads.
+    let fragments: Vec<Fragment> = (0..height.saturating_sub(1))
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let mut row = Vec::new();
+            for_each_triangle(width, y, points, &surface_of, params.reach_mm, |t| {
+                let [a, b, c] = t.map(|i| projected[i].expect("triangles join projected points"));
+                rasterise(a, b, c, surface_of[t[0]], columns, rows, &mut row);
+            });
+            row
+        })
+        .collect();
+    let lookup = FragmentLookup::new(fragments, columns, rows, params.tolerance_mm);
+    let clashes = Clashes::find(&lookup, &projected, &surface_of, surfaces);
     // Each surface's share of points that conflict with any other surface.
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); surfaces];
     for (i, s) in surface_of.iter().enumerate() {
@@ -153,17 +153,7 @@ pub fn fictitious_points(
     let share: Vec<f32> = members
         .iter()
         .enumerate()
-        .map(|(s, m)| {
-            let conflicting = m
-                .iter()
-                .filter(|&&i| {
-                    lookup
-                        .conflict(projected[i].expect("member"), |o| o != s as u32)
-                        .is_some()
-                })
-                .count();
-            conflicting as f32 / m.len().max(1) as f32
-        })
+        .map(|(s, m)| clashes.conflicts(s, |_| true).count() as f32 / m.len().max(1) as f32)
         .collect();
     // A surface the projector sees from behind cannot be lit by it.
     let back_facing = back_facing(calibration, width, height, points, &surface_of);
@@ -188,14 +178,7 @@ pub fn fictitious_points(
         }
     }
     for &s in &order {
-        let conflicting = members[s]
-            .iter()
-            .filter(|&&i| {
-                lookup
-                    .conflict(projected[i].expect("member"), |o| trusted[o as usize])
-                    .is_some()
-            })
-            .count();
+        let conflicting = clashes.conflicts(s, |o| trusted[o as usize]).count();
         if conflicting as f32 > params.max_conflict_share * members[s].len() as f32 {
             for &i in &members[s] {
                 fictitious[i] = true;
@@ -205,15 +188,9 @@ pub fn fictitious_points(
         }
     }
     // Within the trusted surfaces, what another trusted surface occludes.
-    for (s, m) in members.iter().enumerate() {
-        if !trusted[s] {
-            continue;
-        }
-        for &i in m {
-            let point = projected[i].expect("member");
-            if lookup.conflict(point, |o| o != s as u32 && trusted[o as usize])
-                == Some(Conflict::Occluded)
-            {
+    for s in (0..surfaces).filter(|&s| trusted[s]) {
+        for (i, conflict) in clashes.conflicts(s, |o| trusted[o as usize]) {
+            if conflict == Conflict::Occluded {
                 fictitious[i] = true;
             }
         }
@@ -236,6 +213,7 @@ fn back_facing(
     let projector = [o.x as f32, o.y as f32, o.z as f32];
     let same = |i: usize, j: usize| surface_of[i] != NONE && surface_of[i] == surface_of[j];
     (0..points.len())
+        .into_par_iter()
         .map(|i| {
             let Some(p) = points[i] else { return false };
             if surface_of[i] == NONE {
@@ -313,20 +291,21 @@ fn surfaces(
         (Some(p), Some(q), Some(_), Some(_)) => distance_mm(&p, &q) <= reach_mm,
         _ => false,
     };
-    for y in 0..height {
-        for x in 0..width {
-            let i = y * width + x;
-            for j in [
-                (x + 1 < width).then(|| i + 1),
-                (y + 1 < height).then(|| i + width),
-            ]
-            .into_iter()
-            .flatten()
-            {
-                if joined(i, j) {
-                    let (a, b) = (root(&mut parent, i as u32), root(&mut parent, j as u32));
-                    parent[a.max(b) as usize] = a.min(b);
-                }
+    // Whether each pixel is joined to its right (bit 0) and lower (bit 1) neighbour, in
+    // parallel; the joining itself in raster order.
+    let links: Vec<u8> = (0..points.len())
+        .into_par_iter()
+        .map(|i| {
+            let right = i % width + 1 < width && joined(i, i + 1);
+            let below = i / width + 1 < height && joined(i, i + width);
+            right as u8 | (below as u8) << 1
+        })
+        .collect();
+    for (i, &link) in links.iter().enumerate() {
+        for (bit, j) in [(1, i + 1), (2, i + width)] {
+            if link & bit != 0 {
+                let (a, b) = (root(&mut parent, i as u32), root(&mut parent, j as u32));
+                parent[a.max(b) as usize] = a.min(b);
             }
         }
     }
@@ -347,11 +326,12 @@ fn surfaces(
     (surface_of, count as usize)
 }
 
-/// The triangles of the camera grid whose three points are on one surface and pairwise within
-/// `1.5 × reach_mm` (the diagonal of a cell): two per 2 × 2 cell.
+/// The triangles of the camera grid's row `y` of cells (between pixel rows `y` and `y + 1`)
+/// whose three points are on one surface and pairwise within `1.5 × reach_mm` (the diagonal
+/// of a cell): two per 2 × 2 cell.
 fn for_each_triangle(
     width: usize,
-    height: usize,
+    y: usize,
     points: &[Option<[f32; 3]>],
     surface_of: &[u32],
     reach_mm: f32,
@@ -362,25 +342,23 @@ fn for_each_triangle(
         (Some(p), Some(q)) => distance_mm(&p, &q) <= reach,
         _ => false,
     };
-    for y in 0..height.saturating_sub(1) {
-        for x in 0..width.saturating_sub(1) {
-            let (a, b, c, d) = (
-                y * width + x,
-                y * width + x + 1,
-                (y + 1) * width + x,
-                (y + 1) * width + x + 1,
-            );
-            for t in [[a, b, c], [b, d, c]] {
-                let s = surface_of[t[0]];
-                if s != NONE
-                    && surface_of[t[1]] == s
-                    && surface_of[t[2]] == s
-                    && close(t[0], t[1])
-                    && close(t[1], t[2])
-                    && close(t[0], t[2])
-                {
-                    triangle(t);
-                }
+    for x in 0..width.saturating_sub(1) {
+        let (a, b, c, d) = (
+            y * width + x,
+            y * width + x + 1,
+            (y + 1) * width + x,
+            (y + 1) * width + x + 1,
+        );
+        for t in [[a, b, c], [b, d, c]] {
+            let s = surface_of[t[0]];
+            if s != NONE
+                && surface_of[t[1]] == s
+                && surface_of[t[2]] == s
+                && close(t[0], t[1])
+                && close(t[1], t[2])
+                && close(t[0], t[2])
+            {
+                triangle(t);
             }
         }
     }
@@ -397,6 +375,14 @@ fn rasterise(
     rows: u32,
     out: &mut Vec<Fragment>,
 ) {
+    let min_u = a.uv[0].min(b.uv[0]).min(c.uv[0]).ceil().max(0.0) as u32;
+    let max_u = (a.uv[0].max(b.uv[0]).max(c.uv[0]).floor()).min(columns as f32 - 1.0);
+    let min_v = a.uv[1].min(b.uv[1]).min(c.uv[1]).ceil().max(0.0) as u32;
+    let max_v = (a.uv[1].max(b.uv[1]).max(c.uv[1]).floor()).min(rows as f32 - 1.0);
+    // Most triangles of a camera finer than the projector hold no pixel centre: no more work.
+    if max_u < 0.0 || max_v < 0.0 || min_u as f32 > max_u || min_v as f32 > max_v {
+        return;
+    }
     let (ab, ac) = (
         [b.uv[0] - a.uv[0], b.uv[1] - a.uv[1]],
         [c.uv[0] - a.uv[0], c.uv[1] - a.uv[1]],
@@ -410,13 +396,6 @@ fn rasterise(
     let gu = (dzb * ac[1] - dzc * ab[1]) / area;
     let gv = (dzc * ab[0] - dzb * ac[0]) / area;
     let slack = 0.5 * (gu.abs() + gv.abs());
-    let min_u = a.uv[0].min(b.uv[0]).min(c.uv[0]).ceil().max(0.0) as u32;
-    let max_u = (a.uv[0].max(b.uv[0]).max(c.uv[0]).floor()).min(columns as f32 - 1.0);
-    let min_v = a.uv[1].min(b.uv[1]).min(c.uv[1]).ceil().max(0.0) as u32;
-    let max_v = (a.uv[1].max(b.uv[1]).max(c.uv[1]).floor()).min(rows as f32 - 1.0);
-    if max_u < 0.0 || max_v < 0.0 {
-        return;
-    }
     for v in min_v..=max_v as u32 {
         for u in min_u..=max_u as u32 {
             let (pu, pv) = (u as f32 - a.uv[0], v as f32 - a.uv[1]);
@@ -438,40 +417,131 @@ fn rasterise(
     }
 }
 
-/// The rendered fragments of every surface, sorted by projector pixel.
-struct FragmentLookup<'a> {
-    fragments: &'a [Fragment],
+/// The rendered fragments of every surface, by projector pixel.
+struct FragmentLookup {
+    /// The fragments of pixel `p` are `fragments[start[p]..start[p + 1]]`.
+    start: Vec<u32>,
+    fragments: Vec<Fragment>,
     columns: u32,
     rows: u32,
     tolerance_mm: f32,
 }
 
-impl FragmentLookup<'_> {
-    /// How `point` conflicts with the surfaces `consider` accepts at its projector pixel, if it
-    /// does; being occluded takes precedence.
-    fn conflict(&self, point: ProjectedPoint, consider: impl Fn(u32) -> bool) -> Option<Conflict> {
+impl FragmentLookup {
+    /// Sorts `fragments` by pixel and notes where each pixel's begin.
+    fn new(mut fragments: Vec<Fragment>, columns: u32, rows: u32, tolerance_mm: f32) -> Self {
+        fragments.sort_unstable_by_key(|f| f.pixel);
+        let mut start = vec![0u32; (columns * rows) as usize + 1];
+        for f in &fragments {
+            start[f.pixel as usize + 1] += 1;
+        }
+        for p in 0..start.len() - 1 {
+            start[p + 1] += start[p];
+        }
+        FragmentLookup {
+            start,
+            fragments,
+            columns,
+            rows,
+            tolerance_mm,
+        }
+    }
+
+    /// The fragments at `point`'s projector pixel that conflict with it: their surface, and
+    /// how (being occluded takes precedence).
+    fn clashes(&self, point: ProjectedPoint) -> impl Iterator<Item = (u32, Conflict)> + '_ {
         let (u, v) = (point.uv[0].round(), point.uv[1].round());
-        if u < 0.0 || v < 0.0 || u >= self.columns as f32 || v >= self.rows as f32 {
-            return None;
-        }
-        let pixel = v as u32 * self.columns + u as u32;
-        let start = self.fragments.partition_point(|f| f.pixel < pixel);
-        let mut found = None;
-        for f in self.fragments[start..]
-            .iter()
-            .take_while(|f| f.pixel == pixel)
-        {
-            if !consider(f.surface) {
-                continue;
-            }
+        let at = if u < 0.0 || v < 0.0 || u >= self.columns as f32 || v >= self.rows as f32 {
+            &[][..]
+        } else {
+            let pixel = (v as u32 * self.columns + u as u32) as usize;
+            &self.fragments[self.start[pixel] as usize..self.start[pixel + 1] as usize]
+        };
+        at.iter().filter_map(move |f| {
             if f.far_mm < point.depth_mm - self.tolerance_mm {
-                return Some(Conflict::Occluded);
+                Some((f.surface, Conflict::Occluded))
+            } else if f.near_mm > point.depth_mm + self.tolerance_mm {
+                Some((f.surface, Conflict::Occluding))
+            } else {
+                None
             }
-            if f.near_mm > point.depth_mm + self.tolerance_mm {
-                found = Some(Conflict::Occluding);
-            }
+        })
+    }
+}
+
+/// A fragment of another surface on a point's projector ray that conflicts with it.
+#[derive(Clone, Copy, Debug)]
+struct Clash {
+    point: u32,
+    /// The fragment's surface.
+    surface: u32,
+    conflict: Conflict,
+}
+
+/// Every point's clashes, looked up once and grouped by the point's surface: the surfaces are
+/// then trusted one by one, and only the few points with a clash are looked at again.
+struct Clashes {
+    /// Surface `s`'s clashes are `clashes[start[s]..start[s + 1]]`, by point.
+    start: Vec<u32>,
+    clashes: Vec<Clash>,
+}
+
+impl Clashes {
+    /// The clashes of every point on one of the `surfaces` with the others' fragments.
+    fn find(
+        lookup: &FragmentLookup,
+        projected: &[Option<ProjectedPoint>],
+        surface_of: &[u32],
+        surfaces: usize,
+    ) -> Clashes {
+        let mut clashes: Vec<Clash> = (0..projected.len())
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let own = surface_of[i];
+                projected[i]
+                    .filter(|_| own != NONE)
+                    .into_iter()
+                    .flat_map(move |p| lookup.clashes(p))
+                    .filter(move |&(s, _)| s != own)
+                    .map(move |(surface, conflict)| Clash {
+                        point: i as u32,
+                        surface,
+                        conflict,
+                    })
+            })
+            .collect();
+        // Stable: by point within a surface.
+        clashes.sort_by_key(|c| surface_of[c.point as usize]);
+        let mut start = vec![0u32; surfaces + 1];
+        for c in &clashes {
+            start[surface_of[c.point as usize] as usize + 1] += 1;
         }
-        found
+        for s in 0..surfaces {
+            start[s + 1] += start[s];
+        }
+        Clashes { start, clashes }
+    }
+
+    /// The points of surface `s` that conflict with the other surfaces `consider` accepts, and
+    /// how; being occluded takes precedence.
+    fn conflicts<'a>(
+        &'a self,
+        s: usize,
+        consider: impl Fn(u32) -> bool + 'a,
+    ) -> impl Iterator<Item = (usize, Conflict)> + 'a {
+        self.clashes[self.start[s] as usize..self.start[s + 1] as usize]
+            .chunk_by(|a, b| a.point == b.point)
+            .filter_map(move |of_point| {
+                let mut found = None;
+                for c in of_point.iter().filter(|c| consider(c.surface)) {
+                    if c.conflict == Conflict::Occluded {
+                        found = Some(Conflict::Occluded);
+                        break;
+                    }
+                    found = Some(Conflict::Occluding);
+                }
+                found.map(|f| (of_point[0].point as usize, f))
+            })
     }
 }
 
@@ -587,6 +657,67 @@ mod tests {
             .collect();
         let fictitious = fictitious_points(&c, w, h, &points, &VisibilityParams::for_epsilon(4.0));
         assert_eq!(fictitious.iter().filter(|&&f| f).count(), 0);
+    }
+
+    #[test]
+    fn the_test_gives_the_same_points_on_one_thread_and_on_two() {
+        let c = calibration();
+        let (w, h) = (64, 48);
+        // A wall with a patch in front of it, a patch behind it, a patch that leans away from
+        // the projector and pixels without a point: surfaces of every kind, in conflict.
+        let points: Vec<Option<[f32; 3]>> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                match (x, y) {
+                    (20..30, 15..25) => Some(on_plane(&c, x, y, 440.0)),
+                    (40..50, 10..20) => Some(on_plane(&c, x, y, 560.0)),
+                    (5..15, 30..40) => Some(on_plane(&c, x, y, 480.0 - 6.0 * x as f64)),
+                    (_, 44..) => None,
+                    _ => Some(on_plane(&c, x, y, 500.0)),
+                }
+            })
+            .collect();
+        let on = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool")
+                .install(|| {
+                    fictitious_points(&c, w, h, &points, &VisibilityParams::for_epsilon(4.0))
+                })
+        };
+        let one = on(1);
+        assert!(one.iter().any(|&f| f) && one.iter().any(|&f| !f));
+        assert_eq!(one, on(2));
+    }
+
+    #[test]
+    fn a_point_occluded_by_a_surface_considered_conflicts_as_occluded() {
+        let clash = |point: u32, surface: u32, conflict: Conflict| Clash {
+            point,
+            surface,
+            conflict,
+        };
+        // Surface 0's point 3 is in front of surface 1 and behind surface 2; point 7 is behind
+        // surface 2. Surface 1 has no clash.
+        let clashes = Clashes {
+            start: vec![0, 3, 3],
+            clashes: vec![
+                clash(3, 1, Conflict::Occluding),
+                clash(3, 2, Conflict::Occluded),
+                clash(7, 2, Conflict::Occluded),
+            ],
+        };
+        let of = |s: usize, consider: &dyn Fn(u32) -> bool| -> Vec<(usize, Conflict)> {
+            clashes.conflicts(s, consider).collect()
+        };
+        assert_eq!(
+            of(0, &|_| true),
+            [(3, Conflict::Occluded), (7, Conflict::Occluded)]
+        );
+        assert_eq!(of(0, &|o| o == 1), [(3, Conflict::Occluding)]);
+        assert_eq!(of(0, &|_| false), []);
+        assert_eq!(of(1, &|_| true), []);
     }
 
     #[test]
