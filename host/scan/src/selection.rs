@@ -331,15 +331,19 @@ pub fn select(field: &CandidateField, params: &SelectionParams) -> Selection {
                 let i = y * w + x;
                 let mut c = choice[i];
                 if params.drop_isolated && c.is_some() {
-                    let mut chosen_neighbours = 0;
-                    let mut near = false;
-                    for j in neighbours(i, w, h).flatten() {
-                        if choice[j].is_some() {
-                            chosen_neighbours += 1;
-                            near |= distance_mm(&point[i], &point[j]) <= reach_mm;
+                    // Isolated: some neighbour has chosen, and none within reach; the first
+                    // one within reach settles it.
+                    let mut chosen = neighbours(i, w, h)
+                        .flatten()
+                        .filter(|&j| choice[j].is_some());
+                    let isolated = match chosen.next() {
+                        None => false,
+                        Some(first) => {
+                            let near = |j: usize| distance_mm(&point[i], &point[j]) <= reach_mm;
+                            !near(first) && !chosen.any(near)
                         }
-                    }
-                    if chosen_neighbours > 0 && !near {
+                    };
+                    if isolated {
                         c = None;
                         direct[x] = 0.0;
                     }
@@ -424,9 +428,6 @@ struct Group {
     x: [f32; LANES],
     y: [f32; LANES],
     z: [f32; LANES],
-    /// The points again, per coordinate each candidate in [`LANES`] lanes: the AVX2 fold's
-    /// operands as they are, made once for the next pixels of all directions.
-    spread: [[f32; LANES * LANES]; 3],
     /// `C(v, l)`; +∞ in unused lanes, so their path costs are +∞ (or NaN), which [`least`]
     /// never takes from its second operand: a previous group can be used whole.
     data: [f32; LANES],
@@ -436,17 +437,30 @@ struct Group {
     label: u32,
 }
 
-/// One row as a sweep visits it: its pixels' groups and their path costs per direction.
-#[derive(Default)]
-struct Row {
+/// One row as a sweep visits it: its pixels' groups and their path costs in each of the
+/// sweep's `ND` directions.
+struct Row<const ND: usize> {
     /// Pixel `a` (the `a`-th visited) holds `groups[first[a + PAD]..first[a + PAD + 1]]`.
     first: Vec<u32>,
     groups: Vec<Group>,
-    /// `L_r` of group `g` and direction `d` at `g · directions + d`.
-    costs: Vec<[f32; LANES]>,
+    /// `L_r` of group `g` and direction `d` at `[g][d]`.
+    costs: Vec<[[f32; LANES]; ND]>,
+    /// The least of each: `min_l L_r`, which a path's next step subtracts.
+    floors: Vec<[f32; ND]>,
 }
 
-impl Row {
+impl<const ND: usize> Default for Row<ND> {
+    fn default() -> Self {
+        Row {
+            first: Vec::new(),
+            groups: Vec::new(),
+            costs: Vec::new(),
+            floors: Vec::new(),
+        }
+    }
+}
+
+impl<const ND: usize> Row<ND> {
     /// A row of `width` pixels without candidates.
     fn empty(width: usize) -> Self {
         Row {
@@ -455,8 +469,10 @@ impl Row {
         }
     }
 
-    /// Fills the row with image row `y` in `order`.
-    fn fill(&mut self, field: &CandidateField, y: usize, order: Order, directions: usize) {
+    /// Fills the row with image row `y` in `order`. Inlined into each version's sweep, so
+    /// that it is compiled with the sweep's vector instructions.
+    #[inline(always)]
+    fn fill(&mut self, field: &CandidateField, y: usize, order: Order) {
         let w = field.width;
         self.first.clear();
         self.groups.clear();
@@ -469,32 +485,26 @@ impl Row {
             self.first.push(self.groups.len() as u32);
             let strongest = strongest(here);
             for (c, chunk) in here.chunks(LANES).enumerate() {
-                let lanes: [&Label; LANES] =
-                    std::array::from_fn(|k| chunk.get(k).unwrap_or(&chunk[0]));
-                let [x, y, z]: [[f32; LANES]; 3] =
-                    std::array::from_fn(|axis| std::array::from_fn(|k| lanes[k].point_mm[axis]));
-                let spread = |v: &[f32; LANES]| std::array::from_fn(|k| v[k / LANES]);
-                self.groups.push(Group {
-                    spread: [spread(&x), spread(&y), spread(&z)],
-                    x,
-                    y,
-                    z,
-                    data: std::array::from_fn(|k| {
-                        if k < chunk.len() {
-                            data_cost(lanes[k].amplitude, strongest)
-                        } else {
-                            f32::INFINITY
-                        }
-                    }),
+                let [x0, y0, z0] = chunk[0].point_mm;
+                let mut group = Group {
+                    x: [x0; LANES],
+                    y: [y0; LANES],
+                    z: [z0; LANES],
+                    data: [f32::INFINITY; LANES],
                     len: chunk.len() as u32,
                     label: (start + c * LANES) as u32,
-                });
+                };
+                for (k, label) in chunk.iter().enumerate() {
+                    [group.x[k], group.y[k], group.z[k]] = label.point_mm;
+                    group.data[k] = data_cost(label.amplitude, strongest);
+                }
+                self.groups.push(group);
             }
         }
         let end = self.groups.len() as u32;
         self.first.extend([end; PAD + 1]);
-        self.costs
-            .resize(self.groups.len() * directions, [0.0; LANES]);
+        self.costs.resize(self.groups.len(), [[0.0; LANES]; ND]);
+        self.floors.resize(self.groups.len(), [0.0; ND]);
     }
 }
 
@@ -507,9 +517,15 @@ fn sweep(
     order: Order,
 ) -> Vec<f32> {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2.
-        return unsafe { avx2::sweep(field, params, directions, order) };
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F.
+            return unsafe { avx512::sweep(field, params, directions, order) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { avx2::sweep(field, params, directions, order) };
+        }
     }
     sweep_with(field, params, directions, order, |g| *g, fold)
 }
@@ -608,11 +624,16 @@ mod avx2 {
             _mm256_setzero_ps(),
         );
         let mut best = load(&best);
+        let twice = |v: &[f32; LANES]| _mm256_broadcast_ps(&load(v));
+        let (tx, ty, tz) = (twice(&there.x), twice(&there.y), twice(&there.z));
         for half in 0..2 {
+            // Previous candidate `2·half` in lanes 0–3, the next one in lanes 4–7.
+            let j = 2 * half as i32;
+            let spread = _mm256_setr_epi32(j, j, j, j, j + 1, j + 1, j + 1, j + 1);
             let (ex, ey, ez) = (
-                _mm256_sub_ps(here.x, load8(&there.spread[0], half)),
-                _mm256_sub_ps(here.y, load8(&there.spread[1], half)),
-                _mm256_sub_ps(here.z, load8(&there.spread[2], half)),
+                _mm256_sub_ps(here.x, _mm256_permutevar8x32_ps(tx, spread)),
+                _mm256_sub_ps(here.y, _mm256_permutevar8x32_ps(ty, spread)),
+                _mm256_sub_ps(here.z, _mm256_permutevar8x32_ps(tz, spread)),
             );
             let squared = _mm256_add_ps(
                 _mm256_add_ps(_mm256_mul_ps(ex, ex), _mm256_mul_ps(ey, ey)),
@@ -633,12 +654,110 @@ mod avx2 {
         store(best)
     }
 
-    /// Half of a [`Group::spread`].
     #[inline(always)]
-    fn load8(v: &[f32; LANES * LANES], half: usize) -> __m256 {
-        let v = &v[2 * LANES * half..][..2 * LANES];
-        // SAFETY: reads the eight floats of `v`; the callers run with AVX2.
-        unsafe { _mm256_loadu_ps(v.as_ptr()) }
+    fn load(v: &[f32; LANES]) -> __m128 {
+        // SAFETY: reads the four floats of `v`; SSE is part of x86-64.
+        unsafe { _mm_loadu_ps(v.as_ptr()) }
+    }
+
+    #[inline(always)]
+    fn store(v: __m128) -> [f32; LANES] {
+        // SAFETY: four floats either way.
+        unsafe { std::mem::transmute::<__m128, [f32; LANES]>(v) }
+    }
+}
+
+/// [`fold`] with AVX-512: the sixteen steps between a group's candidates and a previous
+/// group's in one register, lane `4j + k` from previous candidate `j` to candidate `k`.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    /// [`super::sweep_with`] for AVX-512 and [`fold`].
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn sweep(
+        field: &CandidateField,
+        params: &SelectionParams,
+        directions: &[Step],
+        order: Order,
+    ) -> Vec<f32> {
+        sweep_with(
+            field,
+            params,
+            directions,
+            order,
+            Here::new,
+            |h, t, p, b, beta, e| fold(h, t, p, b, beta, e),
+        )
+    }
+
+    /// A group's points, each coordinate's lanes four times (once per previous candidate).
+    #[derive(Clone, Copy)]
+    pub(super) struct Here {
+        x: __m512,
+        y: __m512,
+        z: __m512,
+    }
+
+    impl Here {
+        #[inline(always)]
+        fn new(group: &Group) -> Self {
+            // SAFETY: `sweep`, the only caller, runs with AVX-512F.
+            let four = |v: &[f32; LANES]| unsafe { _mm512_broadcast_f32x4(load(v)) };
+            Here {
+                x: four(&group.x),
+                y: four(&group.y),
+                z: four(&group.z),
+            }
+        }
+    }
+
+    /// [`super::fold`], the same operations per step. The least over the previous candidates
+    /// is taken as a tree (halves, then quarters) instead of one after another: the same value,
+    /// as a minimum does not round, once a NaN step (which the sequential fold skips, as
+    /// `least` never takes a NaN second operand) is made +∞, which no minimum takes either.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn fold(
+        here: &Here,
+        there: &Group,
+        previous: &[f32; LANES],
+        best: [f32; LANES],
+        beta: f32,
+        epsilon: f32,
+    ) -> [f32; LANES] {
+        // Lane `4j + k` takes lane `j` of four.
+        let spread = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
+        let spread =
+            |v: &[f32; LANES]| _mm512_permutexvar_ps(spread, _mm512_castps128_ps512(load(v)));
+        let (ex, ey, ez) = (
+            _mm512_sub_ps(here.x, spread(&there.x)),
+            _mm512_sub_ps(here.y, spread(&there.y)),
+            _mm512_sub_ps(here.z, spread(&there.z)),
+        );
+        let squared = _mm512_add_ps(
+            _mm512_add_ps(_mm512_mul_ps(ex, ex), _mm512_mul_ps(ey, ey)),
+            _mm512_mul_ps(ez, ez),
+        );
+        let beyond = _mm512_sub_ps(_mm512_sqrt_ps(squared), _mm512_set1_ps(epsilon));
+        // `max(a, b)` is `a > b ? a : b`, as in `step_cost`.
+        let step = _mm512_mul_ps(
+            _mm512_set1_ps(beta),
+            _mm512_max_ps(beyond, _mm512_setzero_ps()),
+        );
+        // Previous candidate `j`'s cost in lanes `4j` to `4j + 3`.
+        let costs = spread(previous);
+        // `min(a, +∞)` is `a < +∞ ? a : +∞`: +∞ for NaN, `a` otherwise.
+        let moved = _mm512_min_ps(_mm512_add_ps(costs, step), _mm512_set1_ps(f32::INFINITY));
+        let high = _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(moved)));
+        let halves = _mm256_min_ps(_mm512_castps512_ps256(moved), high);
+        let quarters = _mm_min_ps(
+            _mm256_castps256_ps128(halves),
+            _mm256_extractf128_ps::<1>(halves),
+        );
+        // `least(a, b)` is `b < a ? b : a`, that is `min(b, a)`.
+        store(_mm_min_ps(quarters, load(&best)))
     }
 
     #[inline(always)]
@@ -655,8 +774,6 @@ mod avx2 {
 }
 
 /// [`sweep`] with a group's points prepared by `here` for `fold` (a version of [`fold`]).
-///
-/// A row's points are gathered once into [`Group`]s for all the sweep's directions.
 #[inline(always)]
 fn sweep_with<H>(
     field: &CandidateField,
@@ -666,74 +783,98 @@ fn sweep_with<H>(
     here: impl Fn(&Group) -> H,
     fold: impl Fn(&H, &Group, &[f32; LANES], [f32; LANES], f32, f32) -> [f32; LANES],
 ) -> Vec<f32> {
+    // The number of directions is a constant of the loops: a group's paths are an array, and
+    // a row's costs are indexed by group without a multiplication.
+    match directions.len() {
+        0 => vec![0.0; field.labels.len()],
+        4 => sweep_rows::<4, H>(field, params, directions, order, here, fold),
+        8 => sweep_rows::<8, H>(field, params, directions, order, here, fold),
+        n => unreachable!("a sweep takes half of 8 or 16 paths, not {n}"),
+    }
+}
+
+/// [`sweep_with`] for `ND` directions.
+///
+/// A row's points are gathered once into [`Group`]s for all the sweep's directions.
+#[inline(always)]
+fn sweep_rows<const ND: usize, H>(
+    field: &CandidateField,
+    params: &SelectionParams,
+    directions: &[Step],
+    order: Order,
+    here: impl Fn(&Group) -> H,
+    fold: impl Fn(&H, &Group, &[f32; LANES], [f32; LANES], f32, f32) -> [f32; LANES],
+) -> Vec<f32> {
     let (w, h) = (field.width, field.height);
     let mut sum = vec![0.0f32; field.labels.len()];
-    if directions.is_empty() || w == 0 || h == 0 {
+    if w == 0 || h == 0 {
         return sum;
     }
     let (beta, epsilon) = (params.beta_per_mm, params.epsilon_mm);
     // In the order's own frame (pixel `a` of row `s`, both counted as visited) every previous
     // pixel is `(a − dx, s − dy)` with `dy` 0 to 2 and `dx` −2 to 2: where it is in `first`
     // relative to `a`, and the rows back.
-    let back: Vec<(usize, usize)> = directions
-        .iter()
-        .map(|&(dx, dy)| {
-            let (dx, dy) = if order == Order::Raster {
-                (dx, dy)
-            } else {
-                (-dx, -dy)
-            };
-            debug_assert!((0..ROWS_KEPT as i32).contains(&dy) && dx.unsigned_abs() as usize <= PAD);
-            ((PAD as i32 - dx) as usize, dy as usize)
-        })
-        .collect();
-    let nd = directions.len();
-    let empty = Row::empty(w);
-    let mut rows: [Row; ROWS_KEPT] = std::array::from_fn(|_| Row::default());
+    let back: [(usize, usize); ND] = std::array::from_fn(|d| {
+        let (dx, dy) = directions[d];
+        let (dx, dy) = if order == Order::Raster {
+            (dx, dy)
+        } else {
+            (-dx, -dy)
+        };
+        debug_assert!((0..ROWS_KEPT as i32).contains(&dy) && dx.unsigned_abs() as usize <= PAD);
+        ((PAD as i32 - dx) as usize, dy as usize)
+    });
+    let empty = Row::<ND>::empty(w);
+    let mut rows: [Row<ND>; ROWS_KEPT] = std::array::from_fn(|_| Row::default());
     for s in 0..h {
         let y = if order == Order::Raster { s } else { h - 1 - s };
         let mut row = std::mem::take(&mut rows[s % ROWS_KEPT]);
-        row.fill(field, y, order, nd);
-        // The rows `dy` back, if any.
-        let back_rows: [Option<usize>; ROWS_KEPT] =
-            std::array::from_fn(|dy| (dy <= s).then(|| (s - dy) % ROWS_KEPT));
+        row.fill(field, y, order);
+        // The rows 1 and 2 back, or rows without candidates above the image.
+        let earlier: [&Row<ND>; ROWS_KEPT - 1] = std::array::from_fn(|k| {
+            let dy = k + 1;
+            if dy <= s {
+                &rows[(s - dy) % ROWS_KEPT]
+            } else {
+                &empty
+            }
+        });
         for a in 0..w {
             let (gs, ge) = (row.first[a + PAD] as usize, row.first[a + PAD + 1] as usize);
             for g in gs..ge {
-                let group = row.groups[g];
-                let prepared = here(&group);
-                let mut total = [0.0f32; LANES];
-                for (d, &(offset, dy)) in back.iter().enumerate() {
-                    let before = match back_rows[dy] {
-                        _ if dy == 0 => &row,
-                        Some(r) => &rows[r],
-                        None => &empty,
-                    };
+                let before_rows = [&row, earlier[0], earlier[1]];
+                let group = &row.groups[g];
+                let prepared = here(group);
+                let paths: [[f32; LANES]; ND] = std::array::from_fn(|d| {
+                    let (offset, dy) = back[d];
+                    let before = before_rows[dy];
                     let p = a + offset;
                     let (ps, pe) = (before.first[p] as usize, before.first[p + 1] as usize);
-                    let path = if ps == pe {
+                    if ps == pe {
                         // A path starts here: at the border or after a pixel without candidates.
-                        group.data
-                    } else {
-                        let mut floor = f32::INFINITY;
-                        let mut best = [f32::INFINITY; LANES];
-                        for q in ps..pe {
-                            let previous = &before.costs[q * nd + d];
-                            for &cost in previous {
-                                floor = least(floor, cost);
-                            }
-                            best =
-                                fold(&prepared, &before.groups[q], previous, best, beta, epsilon);
-                        }
-                        std::array::from_fn(|k| group.data[k] + best[k] - floor)
-                    };
-                    row.costs[g * nd + d] = path;
+                        return group.data;
+                    }
+                    let mut floor = f32::INFINITY;
+                    let mut best = [f32::INFINITY; LANES];
+                    for ((there, costs), floors) in before.groups[ps..pe]
+                        .iter()
+                        .zip(&before.costs[ps..pe])
+                        .zip(&before.floors[ps..pe])
+                    {
+                        floor = least(floor, floors[d]);
+                        best = fold(&prepared, there, &costs[d], best, beta, epsilon);
+                    }
+                    std::array::from_fn(|k| group.data[k] + best[k] - floor)
+                });
+                let mut total = [0.0f32; LANES];
+                for path in &paths {
                     for k in 0..LANES {
                         total[k] += path[k];
                     }
                 }
-                let n = group.len as usize;
-                let at = group.label as usize;
+                let (n, at) = (group.len as usize, group.label as usize);
+                row.costs[g] = paths;
+                row.floors[g] = paths.map(|path| path.into_iter().fold(f32::INFINITY, least));
                 if n == LANES {
                     sum[at..at + LANES].copy_from_slice(&total);
                 } else {
@@ -903,7 +1044,7 @@ mod tests {
         let field = CandidateField::from_counts(w, h, &counts, labels);
         let data = data_costs(&field);
         let params = SelectionParams::for_footprint(0.5);
-        let mut compared = 0;
+        let (mut compared, mut runs) = (0, 0);
         for paths in [Paths::Eight, Paths::Sixteen] {
             let (raster, reverse) = paths.sweeps();
             assert_eq!(raster.len() + reverse.len(), paths.count() as usize);
@@ -915,26 +1056,43 @@ mod tests {
                         *o += p;
                     }
                 }
-                // The dispatched sweep (AVX2 where the CPU has it) and the portable one.
-                let portable = sweep_with(&field, &params, &directions, order, |g| *g, fold);
-                for swept in [sweep(&field, &params, &directions, order), portable] {
+                // The portable sweep and each vector version the CPU has.
+                let mut versions = vec![sweep_with(
+                    &field,
+                    &params,
+                    &directions,
+                    order,
+                    |g| *g,
+                    fold,
+                )];
+                #[cfg(target_arch = "x86_64")]
+                {
+                    if std::arch::is_x86_feature_detected!("avx2") {
+                        // SAFETY: the CPU has AVX2.
+                        versions.push(unsafe { avx2::sweep(&field, &params, &directions, order) });
+                    }
+                    if std::arch::is_x86_feature_detected!("avx512f") {
+                        // SAFETY: the CPU has AVX-512F.
+                        versions
+                            .push(unsafe { avx512::sweep(&field, &params, &directions, order) });
+                    }
+                }
+                runs += versions.len();
+                for (version, swept) in versions.into_iter().enumerate() {
                     assert_eq!(swept.len(), oracle.len());
                     for (i, (a, b)) in swept.iter().zip(&oracle).enumerate() {
                         assert_eq!(
                             a.to_bits(),
                             b.to_bits(),
-                            "{paths:?} {directions:?}, candidate {i}"
+                            "{paths:?} {directions:?}, version {version}, candidate {i}"
                         );
                         compared += 1;
                     }
                 }
             }
         }
-        assert_eq!(
-            compared,
-            8 * data.len(),
-            "two path sets, two sweeps each, two versions"
-        );
+        assert!(runs >= 4, "two path sets, two sweeps each");
+        assert_eq!(compared, runs * data.len());
     }
 
     /// [`select`] written out plainly on the oracle's paths: the sums, the least, the isolated
