@@ -3,7 +3,7 @@
 # is missing, build the ARM ELF, cross-check its candidates against the host's decode under
 # QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections, on the firmware's
 # own mirror scene and on the simulator's plane_mirror, with CLEAN and with the local-maximum
-# search), drive it with the host CLI over its UART and its Ethernet (`fsm camera info`, `fsm
+# search), drive it with the host CLI over its UART and its Ethernet (`fsm upload`, `fsm camera info`, `fsm
 # camera scan`), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
 # (console on UART1, scans over Ethernet, a panic that resets the SoC), check how it refuses bad
 # input, the determinism of its instruction counts, every failure path's exit code, the Rust
@@ -146,9 +146,21 @@ crosscheck_dumps "$fast_ok" crosscheck-fast \
     "with the local-maximum search (BFSM mirror scene, EFSM 2 groups plane_mirror, 32 rows x 48 pixels)" \
     "$WORK/fast-bfsm.dump" "$WORK/fast-bfsm.plan" "$WORK/sim-fast/scan.dump" "$WORK/sim-fast/plan.bin"
 
+# upload_check DEVICE NAME: `fsm upload` of the BFSM plan on its own; the camera names the plan
+# by its fingerprint, and `fsm camera info` then reports that plan as loaded. Output in NAME-*.txt.
+upload_check() {
+    local fp
+    "$FSM" upload --plan sim-paper-bfsm/plan.toml --device "$1" >"$2-upload.txt" 2>&1 \
+        && fp="$(sed -n 's/.*(fingerprint \([0-9a-f]*\)).*/\1/p' "$2-upload.txt")" && [ -n "$fp" ] \
+        && "$FSM" camera info --device "$1" >"$2-loaded.txt" 2>&1 \
+        && grep -q "^loaded plan *$fp\$" "$2-loaded.txt" \
+        && echo "$fp"
+}
+
 # 2d. The host CLI against the firmware serving on its UART (run-qemu.sh --serve-uart: UART1's
 #     bytes go to a TCP socket): `fsm camera info`, then `fsm camera scan` of the simulator's
-#     plane_mirror dump (two-group EFSM, 32 rows x 48 pixels), compared with the host's decode.
+#     plane_mirror dumps (BFSM and two-group EFSM, 32 rows x 48 pixels), each compared with the
+#     host's decode. BFSM sends 2.4 MB of rows through the UART: the time and rate are printed.
 uart_port="$(free_port)"
 "$S/run-qemu.sh" --serve-uart "$uart_port" "$ELF" >uart-console.txt 2>uart-qemu.txt &
 uart_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
@@ -156,17 +168,35 @@ await_line '^SERVE UART1' uart-console.txt
 uart_dev="tcp://127.0.0.1:$uart_port"
 if [ "$sim_ok" = 1 ] && grep -q '^SERVE UART1' uart-console.txt \
     && "$FSM" camera info --device "$uart_dev" >uart-info.txt 2>&1 \
-    && grep -q '^max pixels per row *4096' uart-info.txt \
-    && "$FSM" camera scan --plan sim-paper-efsm-2/plan.toml --dump sim-paper-efsm-2/scan.dump \
-        --device "$uart_dev" --out uart.cand --timeout 60 2>uart-scan.txt \
-    && "$TOOL" decode --plan sim-paper-efsm-2/plan.bin --dump sim-paper-efsm-2/scan.dump --out uart-host.cand \
-    && "$TOOL" compare uart-host.cand uart.cand --min-rows 32 >uart-compare.txt; then
-    cat uart-scan.txt
-    ok "fsm camera info and fsm camera scan over the firmware's UART (QEMU, $uart_dev): candidates bit-identical"
+    && grep -q '^max pixels per row *4096' uart-info.txt; then
+    ok "fsm camera info over the firmware's UART (QEMU, $uart_dev)"
 else
-    cat uart-console.txt uart-qemu.txt uart-info.txt uart-scan.txt uart-compare.txt 2>/dev/null || true
-    bad "fsm camera info / scan over the firmware's UART"
+    cat uart-console.txt uart-qemu.txt uart-info.txt 2>/dev/null || true
+    bad "fsm camera info over the firmware's UART"
 fi
+if [ "$sim_ok" = 1 ] && fp="$(upload_check "$uart_dev" uart)"; then
+    ok "fsm upload over the firmware's UART: plan $fp loaded, as fsm camera info reports"
+else
+    cat uart-upload.txt uart-loaded.txt 2>/dev/null || true
+    bad "fsm upload over the firmware's UART"
+fi
+for p in paper-efsm-2 paper-bfsm; do
+    t0=$(date +%s.%N)
+    if [ "$sim_ok" = 1 ] \
+        && "$FSM" camera scan --plan "sim-$p/plan.toml" --dump "sim-$p/scan.dump" \
+            --device "$uart_dev" --out "uart-$p.cand" --timeout 60 2>"uart-$p-scan.txt" \
+        && "$TOOL" decode --plan "sim-$p/plan.bin" --dump "sim-$p/scan.dump" --out "uart-$p-host.cand" \
+        && "$TOOL" compare "uart-$p-host.cand" "uart-$p.cand" --min-rows 32 >"uart-$p-compare.txt"; then
+        t1=$(date +%s.%N)
+        cat "uart-$p-scan.txt"
+        awk -v a="$t0" -v b="$t1" -v n="$(stat -c %s "sim-$p/scan.dump")" -v p="$p" \
+            'BEGIN { printf "%s over the UART: 32 rows, %d bytes of rows in %.1f s (%.0f kB/s, with the host decode and compare)\n", p, n, b - a, n / 1000 / (b - a) }'
+        ok "fsm camera scan over the firmware's UART, $p (32 rows x 48 pixels): candidates bit-identical"
+    else
+        cat uart-console.txt uart-qemu.txt "uart-$p-scan.txt" "uart-$p-compare.txt" 2>/dev/null || true
+        bad "fsm camera scan over the firmware's UART, $p"
+    fi
+done
 kill "$uart_qemu" 2>/dev/null || true
 wait "$uart_qemu" 2>/dev/null || true
 
@@ -204,6 +234,12 @@ if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] \
 else
     cat net-console.txt net-qemu.txt net-info.txt 2>/dev/null || true
     bad "fsm camera info over the firmware's Ethernet"
+fi
+if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && fp="$(upload_check "$net_dev" net)"; then
+    ok "fsm upload over the firmware's Ethernet: plan $fp loaded, as fsm camera info reports"
+else
+    cat net-upload.txt net-loaded.txt 2>/dev/null || true
+    bad "fsm upload over the firmware's Ethernet"
 fi
 for p in paper-bfsm paper-efsm-2; do
     if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && net_scan "$p" "net-$p" >"net-$p.rate"; then
