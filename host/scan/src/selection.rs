@@ -559,9 +559,29 @@ fn fold(
     best
 }
 
+/// Four lanes in and out of an SSE register, for both vector versions of [`fold`].
+#[cfg(target_arch = "x86_64")]
+mod sse {
+    use super::LANES;
+    use std::arch::x86_64::*;
+
+    #[inline(always)]
+    pub(super) fn load(v: &[f32; LANES]) -> __m128 {
+        // SAFETY: reads the four floats of `v`; SSE is part of x86-64.
+        unsafe { _mm_loadu_ps(v.as_ptr()) }
+    }
+
+    #[inline(always)]
+    pub(super) fn store(v: __m128) -> [f32; LANES] {
+        // SAFETY: four floats either way.
+        unsafe { std::mem::transmute::<__m128, [f32; LANES]>(v) }
+    }
+}
+
 /// [`fold`] with AVX2: two previous candidates a register.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
+    use super::sse::{load, store};
     use super::*;
     use std::arch::x86_64::*;
 
@@ -653,24 +673,13 @@ mod avx2 {
         }
         store(best)
     }
-
-    #[inline(always)]
-    fn load(v: &[f32; LANES]) -> __m128 {
-        // SAFETY: reads the four floats of `v`; SSE is part of x86-64.
-        unsafe { _mm_loadu_ps(v.as_ptr()) }
-    }
-
-    #[inline(always)]
-    fn store(v: __m128) -> [f32; LANES] {
-        // SAFETY: four floats either way.
-        unsafe { std::mem::transmute::<__m128, [f32; LANES]>(v) }
-    }
 }
 
 /// [`fold`] with AVX-512: the sixteen steps between a group's candidates and a previous
 /// group's in one register, lane `4j + k` from previous candidate `j` to candidate `k`.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
+    use super::sse::{load, store};
     use super::*;
     use std::arch::x86_64::*;
 
@@ -758,18 +767,6 @@ mod avx512 {
         );
         // `least(a, b)` is `b < a ? b : a`, that is `min(b, a)`.
         store(_mm_min_ps(quarters, load(&best)))
-    }
-
-    #[inline(always)]
-    fn load(v: &[f32; LANES]) -> __m128 {
-        // SAFETY: reads the four floats of `v`; SSE is part of x86-64.
-        unsafe { _mm_loadu_ps(v.as_ptr()) }
-    }
-
-    #[inline(always)]
-    fn store(v: __m128) -> [f32; LANES] {
-        // SAFETY: four floats either way.
-        unsafe { std::mem::transmute::<__m128, [f32; LANES]>(v) }
     }
 }
 
