@@ -3,8 +3,8 @@
 # is missing, build the ARM ELF, cross-check its candidates against the host's decode under
 # QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections, on the firmware's
 # own mirror scene and on the simulator's plane_mirror, with CLEAN and with the local-maximum
-# search), drive it with the host CLI over its UART and its Ethernet (`fsm upload`, `fsm camera info`, `fsm
-# camera scan`), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
+# search), drive it with the host CLI over its UART and its Ethernet (`fsm upload`, `fsm camera
+# info`, `fsm camera scan`), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
 # (console on UART1, scans over Ethernet, a panic that resets the SoC), check how it refuses bad
 # input, the determinism of its instruction counts, every failure path's exit code, the Rust
 # cross-check test, and (if defmt-print is installed) defmt logging.
@@ -146,6 +146,23 @@ crosscheck_dumps "$fast_ok" crosscheck-fast \
     "with the local-maximum search (BFSM mirror scene, EFSM 2 groups plane_mirror, 32 rows x 48 pixels)" \
     "$WORK/fast-bfsm.dump" "$WORK/fast-bfsm.plan" "$WORK/sim-fast/scan.dump" "$WORK/sim-fast/plan.bin"
 
+# link_scan DEVICE PRESET NAME: `fsm camera scan` of sim-PRESET through DEVICE (the firmware's
+# UART or Ethernet) into NAME.cand, compared with the host's decode (32 rows); prints the scan's
+# time and rate. Fails if anything differs.
+link_scan() {
+    local t0 t1 bytes
+    t0=$(date +%s.%N)
+    "$FSM" camera scan --plan "sim-$2/plan.toml" --dump "sim-$2/scan.dump" --device "$1" \
+        --out "$3.cand" --timeout 60 >"$3-scan.txt" 2>&1 || { cat "$3-scan.txt"; return 1; }
+    t1=$(date +%s.%N)
+    "$TOOL" decode --plan "sim-$2/plan.bin" --dump "sim-$2/scan.dump" --out "$3-host.cand" >/dev/null \
+        && "$TOOL" compare "$3-host.cand" "$3.cand" --min-rows 32 >"$3-compare.txt" \
+        || { cat "$3-compare.txt" 2>/dev/null; return 1; }
+    bytes=$(stat -c %s "sim-$2/scan.dump")
+    awk -v a="$t0" -v b="$t1" -v n="$bytes" -v p="$2" \
+        'BEGIN { printf "%s: 32 rows, %d bytes of rows in %.2f s: %.1f rows/s, %.0f kB/s\n", p, n, b - a, 32 / (b - a), n / 1000 / (b - a) }'
+}
+
 # upload_check DEVICE NAME: `fsm upload` of the BFSM plan on its own; the camera names the plan
 # by its fingerprint, and `fsm camera info` then reports that plan as loaded. Output in NAME-*.txt.
 upload_check() {
@@ -160,7 +177,8 @@ upload_check() {
 # 2d. The host CLI against the firmware serving on its UART (run-qemu.sh --serve-uart: UART1's
 #     bytes go to a TCP socket): `fsm camera info`, then `fsm camera scan` of the simulator's
 #     plane_mirror dumps (BFSM and two-group EFSM, 32 rows x 48 pixels), each compared with the
-#     host's decode. BFSM sends 2.4 MB of rows through the UART: the time and rate are printed.
+#     host's decode. BFSM sends 2.4 MB of rows through the UART: the scan's time and rate are
+#     printed.
 uart_port="$(free_port)"
 "$S/run-qemu.sh" --serve-uart "$uart_port" "$ELF" >uart-console.txt 2>uart-qemu.txt &
 uart_qemu=$!   # run-qemu.sh exec's QEMU: this is QEMU's PID
@@ -181,19 +199,11 @@ else
     bad "fsm upload over the firmware's UART"
 fi
 for p in paper-efsm-2 paper-bfsm; do
-    t0=$(date +%s.%N)
-    if [ "$sim_ok" = 1 ] \
-        && "$FSM" camera scan --plan "sim-$p/plan.toml" --dump "sim-$p/scan.dump" \
-            --device "$uart_dev" --out "uart-$p.cand" --timeout 60 2>"uart-$p-scan.txt" \
-        && "$TOOL" decode --plan "sim-$p/plan.bin" --dump "sim-$p/scan.dump" --out "uart-$p-host.cand" \
-        && "$TOOL" compare "uart-$p-host.cand" "uart-$p.cand" --min-rows 32 >"uart-$p-compare.txt"; then
-        t1=$(date +%s.%N)
-        cat "uart-$p-scan.txt"
-        awk -v a="$t0" -v b="$t1" -v n="$(stat -c %s "sim-$p/scan.dump")" -v p="$p" \
-            'BEGIN { printf "%s over the UART: 32 rows, %d bytes of rows in %.1f s (%.0f kB/s, with the host decode and compare)\n", p, n, b - a, n / 1000 / (b - a) }'
+    if [ "$sim_ok" = 1 ] && link_scan "$uart_dev" "$p" "uart-$p" >"uart-$p.rate"; then
+        cat "uart-$p.rate"
         ok "fsm camera scan over the firmware's UART, $p (32 rows x 48 pixels): candidates bit-identical"
     else
-        cat uart-console.txt uart-qemu.txt "uart-$p-scan.txt" "uart-$p-compare.txt" 2>/dev/null || true
+        cat uart-console.txt uart-qemu.txt "uart-$p.rate" 2>/dev/null || true
         bad "fsm camera scan over the firmware's UART, $p"
     fi
 done
@@ -212,21 +222,6 @@ await_line '^SERVE NET' net-console.txt
 net_dev="tcp://127.0.0.1:$net_port"
 net_up=0
 grep -q '^SERVE NET 10.0.2.15:7070 ' net-console.txt && net_up=1
-# net_scan PRESET NAME: `fsm camera scan` of sim-PRESET over Ethernet into NAME.cand, compared with
-# the host's decode (32 rows); prints the time and the rate. Fails if anything differs.
-net_scan() {
-    local t0 t1 bytes
-    t0=$(date +%s.%N)
-    "$FSM" camera scan --plan "sim-$1/plan.toml" --dump "sim-$1/scan.dump" --device "$net_dev" \
-        --out "$2.cand" --timeout 60 >"$2-scan.txt" 2>&1 || { cat "$2-scan.txt"; return 1; }
-    t1=$(date +%s.%N)
-    "$TOOL" decode --plan "sim-$1/plan.bin" --dump "sim-$1/scan.dump" --out "$2-host.cand" >/dev/null \
-        && "$TOOL" compare "$2-host.cand" "$2.cand" --min-rows 32 >"$2-compare.txt" \
-        || { cat "$2-compare.txt" 2>/dev/null; return 1; }
-    bytes=$(stat -c %s "sim-$1/scan.dump")
-    awk -v a="$t0" -v b="$t1" -v n="$bytes" -v p="$1" \
-        'BEGIN { printf "%s: 32 rows, %d bytes of rows in %.2f s: %.1f rows/s, %.0f kB/s\n", p, n, b - a, 32 / (b - a), n / 1000 / (b - a) }'
-}
 if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] \
     && "$FSM" camera info --device "$net_dev" >net-info.txt 2>&1 \
     && grep -q '^max pixels per row *4096' net-info.txt; then
@@ -242,7 +237,7 @@ else
     bad "fsm upload over the firmware's Ethernet"
 fi
 for p in paper-bfsm paper-efsm-2; do
-    if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && net_scan "$p" "net-$p" >"net-$p.rate"; then
+    if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && link_scan "$net_dev" "$p" "net-$p" >"net-$p.rate"; then
         cat "net-$p.rate"
         ok "fsm camera scan over Ethernet, $p (32 rows x 48 pixels): candidates bit-identical"
     else
@@ -295,7 +290,7 @@ for what in garbage reset; do
         bad "over Ethernet, bad input: $what"
     fi
 done
-if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && net_scan paper-efsm-2 net-again >net-again.rate; then
+if [ "$sim_ok" = 1 ] && [ "$net_up" = 1 ] && link_scan "$net_dev" paper-efsm-2 net-again >net-again.rate; then
     cat net-again.rate
     ok "fsm camera scan over Ethernet after garbage and a reset: candidates bit-identical"
 else
@@ -346,7 +341,7 @@ else
     bad "raw binary booted as by U-Boot: console on UART1, fsm camera info over Ethernet"
 fi
 for p in paper-bfsm paper-efsm-2; do
-    if [ "$sim_ok" = 1 ] && [ "$board_up" = 1 ] && net_scan "$p" "board-$p" >"board-$p.rate"; then
+    if [ "$sim_ok" = 1 ] && [ "$board_up" = 1 ] && link_scan "$net_dev" "$p" "board-$p" >"board-$p.rate"; then
         cat "board-$p.rate"
         ok "raw binary booted as by U-Boot: fsm camera scan, $p (32 rows x 48 pixels): candidates bit-identical"
     else
@@ -496,7 +491,7 @@ else
         await_line '^SERVE NET' defmt-board-console.txt
         net_dev="tcp://127.0.0.1:$defmt_port"
         defmt_scan_ok=0
-        if [ "$sim_ok" = 1 ] && net_scan paper-efsm-2 defmt-board >defmt-board.rate; then
+        if [ "$sim_ok" = 1 ] && link_scan "$net_dev" paper-efsm-2 defmt-board >defmt-board.rate; then
             defmt_scan_ok=1
         fi
         # The session's line is logged once the host has gone: give it a moment.
