@@ -445,8 +445,6 @@ struct Row<const ND: usize> {
     groups: Vec<Group>,
     /// `L_r` of group `g` and direction `d` at `[g][d]`.
     costs: Vec<[[f32; LANES]; ND]>,
-    /// The least of each: `min_l L_r`, which a path's next step subtracts.
-    floors: Vec<[f32; ND]>,
 }
 
 impl<const ND: usize> Default for Row<ND> {
@@ -455,7 +453,6 @@ impl<const ND: usize> Default for Row<ND> {
             first: Vec::new(),
             groups: Vec::new(),
             costs: Vec::new(),
-            floors: Vec::new(),
         }
     }
 }
@@ -504,7 +501,6 @@ impl<const ND: usize> Row<ND> {
         let end = self.groups.len() as u32;
         self.first.extend([end; PAD + 1]);
         self.costs.resize(self.groups.len(), [[0.0; LANES]; ND]);
-        self.floors.resize(self.groups.len(), [0.0; ND]);
     }
 }
 
@@ -853,13 +849,12 @@ fn sweep_rows<const ND: usize, H>(
                     }
                     let mut floor = f32::INFINITY;
                     let mut best = [f32::INFINITY; LANES];
-                    for ((there, costs), floors) in before.groups[ps..pe]
-                        .iter()
-                        .zip(&before.costs[ps..pe])
-                        .zip(&before.floors[ps..pe])
-                    {
-                        floor = least(floor, floors[d]);
-                        best = fold(&prepared, there, &costs[d], best, beta, epsilon);
+                    for (there, costs) in before.groups[ps..pe].iter().zip(&before.costs[ps..pe]) {
+                        let previous = &costs[d];
+                        for &cost in previous {
+                            floor = least(floor, cost);
+                        }
+                        best = fold(&prepared, there, previous, best, beta, epsilon);
                     }
                     std::array::from_fn(|k| group.data[k] + best[k] - floor)
                 });
@@ -871,7 +866,6 @@ fn sweep_rows<const ND: usize, H>(
                 }
                 let (n, at) = (group.len as usize, group.label as usize);
                 row.costs[g] = paths;
-                row.floors[g] = paths.map(|path| path.into_iter().fold(f32::INFINITY, least));
                 if n == LANES {
                     sum[at..at + LANES].copy_from_slice(&total);
                 } else {
