@@ -220,7 +220,8 @@ pub struct SelectionParams {
     pub drop_fictitious: bool,
     /// Give no point to a pixel that straddles a depth edge or a crease
     /// ([`crate::surface::NoPoint::Edge`]): its footprint sees two surfaces, and its point
-    /// may be on either, or on neither.
+    /// may be on either, or on neither. Nor to one whose point its neighbourhood does not
+    /// confirm ([`crate::surface::NoPoint::Unconfirmed`]).
     pub drop_edges: bool,
     /// Give no point to a pixel whose chosen light's quality (signal-to-noise ratio,
     /// [`crate::Surface::quality`]) is below this; methods without a quality are not filtered.

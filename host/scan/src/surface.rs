@@ -7,7 +7,7 @@ use fsm_io::candidate_image::CandidateImage;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::continuation::{LocalPlane, Window, SCATTER_FACTOR};
+use crate::continuation::{LocalPlane, Window, HALF_WINDOW_PX, SCATTER_FACTOR};
 use crate::mirror::{mirror_images, Mirror, MirrorParams};
 use crate::ply::PlyPoint;
 use crate::selection::{
@@ -41,9 +41,15 @@ pub enum NoPoint {
     /// The pixel straddles a depth edge: a neighbour chose a point on another surface, the
     /// pixel holds that surface's light too and the neighbour not the pixel's, so its
     /// footprint sees both sides and its point may belong to either. Or its point continues
-    /// none of its neighbours' surfaces ([`Surface::straddles`]): it straddles a crease, and
+    /// none of its neighbours' surfaces ([`Surface::drop_unconfirmed`]): it straddles a crease, and
     /// its light's centroid lies on neither side.
     Edge,
+    /// No side of its neighbourhood holds a surface measured finely enough to confirm its
+    /// point ([`Surface::drop_unconfirmed`]): fewer than
+    /// [`MIN_NEIGHBOURS`](crate::continuation::MIN_NEIGHBOURS) points on every
+    /// side, or too scattered to tell surfaces `ε` apart. A speck, a strip one or two pixels
+    /// wide, or a patch too noisy to vouch for itself.
+    Unconfirmed,
 }
 
 /// Pixels without a point, by reason (`summary.json`).
@@ -69,6 +75,19 @@ pub struct NoPointCounts {
     pub behind_mirror: usize,
     /// See [`NoPoint::Edge`].
     pub edge: usize,
+    /// See [`NoPoint::Unconfirmed`].
+    pub unconfirmed: usize,
+}
+
+/// What the points around a pixel say of its point ([`Surface::drop_unconfirmed`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Support {
+    /// It lies on the plane of a side that discriminates.
+    Continues,
+    /// Every side that discriminates predicts another depth.
+    Straddles,
+    /// No side discriminates: too few points there, or too scattered.
+    Unconfirmed,
 }
 
 /// The result of a scan.
@@ -180,36 +199,70 @@ impl Surface {
             .collect()
     }
 
-    /// The pixels whose point continues none of its neighbours' surfaces: of the planes
-    /// fitted to the points on each side of it (left, right, above, below; [`LocalPlane`]),
-    /// those that discriminate (`epsilon_mm`) all predict another depth. Its footprint straddles
-    /// a crease, or an edge the selection's choices do not show: at the corner of a V-groove it
-    /// sees both facets, and its light's centroid lies on neither. A pixel with no side that
-    /// discriminates is not judged.
-    pub fn straddles(&self, epsilon_mm: f32) -> Vec<bool> {
-        (0..self.width * self.height)
-            .into_par_iter()
-            .map(|i| {
-                let Some(point) = self.point_mm[i] else {
-                    return false;
-                };
-                let mut judged = false;
-                for side in Window::SIDES {
-                    let plane = LocalPlane::fit(&self.point_mm, self.width, i, side)
-                        .filter(|p| p.discriminates(epsilon_mm));
-                    if let Some(plane) = plane {
-                        let off_mm = (point[2] as f64 - plane.depth_mm).abs();
-                        if plane.deviation(point) <= SCATTER_FACTOR
-                            || off_mm <= 0.25 * epsilon_mm as f64
-                        {
-                            return false;
-                        }
-                        judged = true;
+    /// What the points on each side of pixel `i` (left, right, above, below; [`LocalPlane`])
+    /// say of its point, if it has one. Only the sides whose plane discriminates (`epsilon_mm`)
+    /// have a say: the point continues one of them, or straddles a crease or an edge the
+    /// selection's choices do not show (at the corner of a V-groove a pixel sees both facets,
+    /// and its light's centroid lies on neither), or no side vouches for it.
+    fn support(&self, i: usize, epsilon_mm: f32) -> Option<Support> {
+        let point = self.point_mm[i]?;
+        let mut judged = false;
+        for side in Window::SIDES {
+            let plane = LocalPlane::fit(&self.point_mm, self.width, i, side)
+                .filter(|p| p.discriminates(epsilon_mm));
+            if let Some(plane) = plane {
+                let off_mm = (point[2] as f64 - plane.depth_mm).abs();
+                if plane.deviation(point) <= SCATTER_FACTOR || off_mm <= 0.25 * epsilon_mm as f64 {
+                    return Some(Support::Continues);
+                }
+                judged = true;
+            }
+        }
+        Some(if judged {
+            Support::Straddles
+        } else {
+            Support::Unconfirmed
+        })
+    }
+
+    /// Keeps only the points that continue the surface of their neighbourhood: each must lie
+    /// on the plane of one side of it (left, right, above, below) that discriminates
+    /// ([`LocalPlane::discriminates`]). A point that continues no such side straddles a
+    /// crease ([`NoPoint::Edge`]); one that no side can judge is [`NoPoint::Unconfirmed`]: a
+    /// point is right or absent, and a point nothing around it measures could be either (a
+    /// strip one pixel wide along a groove's corner, its neighbours on both sides dropped as
+    /// fictitious, has no side with six points).
+    ///
+    /// Judged again near the points dropped until none goes: every point left is confirmed
+    /// by the points left. Each pass judges every open pixel before dropping any, so the
+    /// result is the same on any number of threads.
+    pub fn drop_unconfirmed(&mut self, epsilon_mm: f32) {
+        let (w, h) = (self.width, self.height);
+        let mut open: Vec<usize> = (0..w * h).filter(|&i| self.point_mm[i].is_some()).collect();
+        while !open.is_empty() {
+            let verdicts: Vec<(usize, NoPoint)> = open
+                .par_iter()
+                .filter_map(|&i| match self.support(i, epsilon_mm)? {
+                    Support::Continues => None,
+                    Support::Straddles => Some((i, NoPoint::Edge)),
+                    Support::Unconfirmed => Some((i, NoPoint::Unconfirmed)),
+                })
+                .collect();
+            let mut near = vec![false; w * h];
+            let r = HALF_WINDOW_PX;
+            for &(i, reason) in &verdicts {
+                self.drop_point(i, reason);
+                let (x, y) = (i % w, i / w);
+                for ny in y.saturating_sub(r)..(y + r + 1).min(h) {
+                    for nx in x.saturating_sub(r)..(x + r + 1).min(w) {
+                        near[ny * w + nx] = true;
                     }
                 }
-                judged
-            })
-            .collect()
+            }
+            open = (0..w * h)
+                .filter(|&i| near[i] && self.point_mm[i].is_some())
+                .collect();
+        }
     }
 
     /// Gives every point its quality: its light's amplitude over `column_noise_dn`.
@@ -295,6 +348,7 @@ impl Surface {
                 NoPoint::Fictitious => &mut counts.fictitious,
                 NoPoint::BehindMirror => &mut counts.behind_mirror,
                 NoPoint::Edge => &mut counts.edge,
+                NoPoint::Unconfirmed => &mut counts.unconfirmed,
             } += 1;
         }
         counts
@@ -477,8 +531,7 @@ impl Surface {
             // columns with unwrapping and quantisation errors, for which the comparison reports
             // every point they decode.
             if decoded.column_noise_dn.is_some() {
-                let straddling = surface.straddles(params.epsilon_mm);
-                surface.drop_edges(&straddling);
+                surface.drop_unconfirmed(params.epsilon_mm);
             }
         }
         let times = StageTimes {
@@ -620,25 +673,69 @@ mod tests {
             let corner = if x == 4 && y != 2 { 1.5 } else { 0.0 };
             500.0 - (x as f32 - 4.0).abs() + 0.004 * ((x * 7 + y * 3) % 5) as f32 + corner
         };
-        let field = CandidateField::from_fn(9, 9, |x, y| {
-            [Label {
-                point_mm: [x as f32, y as f32, depth(x, y)],
-                amplitude: 100.0,
-                column: x as f32,
-            }]
-        });
         // ε is 2 mm here: a point 0.5 mm (ε/4) or more off every facet's plane is on neither.
         let params = SelectionParams::for_footprint(0.5);
         assert_eq!(params.epsilon_mm, 2.0);
-        let mut s = Surface::select(&field, &[None; 81], &params);
-        for i in 0..81 {
-            s.point_mm[i] = Some([(i % 9) as f32, (i / 9) as f32, depth(i % 9, i / 9)]);
-        }
-        let straddling = s.straddles(params.epsilon_mm);
-        let marked: Vec<(usize, usize)> = (0..81)
-            .filter(|&i| straddling[i])
-            .map(|i| (i % 9, i / 9))
+        let mut s = surface_of(9, 9, |x, y| Some(depth(x, y)));
+        s.drop_unconfirmed(params.epsilon_mm);
+        let dropped: Vec<(usize, usize, Option<NoPoint>)> = (0..81)
+            .filter(|&i| s.point_mm[i].is_none())
+            .map(|i| (i % 9, i / 9, s.no_point[i]))
             .collect();
-        assert_eq!(marked, [0, 1, 3, 4, 5, 6, 7, 8].map(|y| (4, y)));
+        assert_eq!(
+            dropped,
+            [0, 1, 3, 4, 5, 6, 7, 8].map(|y| (4, y, Some(NoPoint::Edge)))
+        );
+    }
+
+    /// A `w × h` surface whose pixel `(x, y)` has the point `(x, y, depth(x, y))` mm, or none.
+    fn surface_of(w: usize, h: usize, depth: impl Fn(usize, usize) -> Option<f32>) -> Surface {
+        let field = CandidateField::from_fn(w, h, |x, y| {
+            depth(x, y).map(|z| Label {
+                point_mm: [x as f32, y as f32, z],
+                amplitude: 100.0,
+                column: x as f32,
+            })
+        });
+        let before: Vec<Option<NoPoint>> = (0..w * h)
+            .map(|i| depth(i % w, i / w).is_none().then_some(NoPoint::NoLight))
+            .collect();
+        let mut s = Surface::select(&field, &before, &SelectionParams::for_footprint(0.5));
+        // The choices as given, whatever the selection's isolated-choice pass made of them.
+        for i in 0..w * h {
+            s.point_mm[i] = depth(i % w, i / w).map(|z| [(i % w) as f32, (i / w) as f32, z]);
+        }
+        s
+    }
+
+    #[test]
+    fn a_speck_and_a_strip_two_pixels_wide_are_unconfirmed_and_a_wall_keeps_every_point() {
+        let wall =
+            |x: usize, y: usize| 500.0 + 0.3 * x as f32 + 0.004 * ((x * 7 + y * 3) % 5) as f32;
+        // A 14 × 10 image: a tilted wall over columns 0..6, and apart from it and from each
+        // other a strip over columns 8..10 and a 2 × 2 speck.
+        let depth = |x: usize, y: usize| match (x, y) {
+            (0..6, _) => Some(wall(x, y)),
+            (8..10, 0..8) => Some(450.0 + 0.004 * ((x + y) % 3) as f32),
+            (12..14, 8..10) => Some(480.0),
+            _ => None,
+        };
+        let mut s = surface_of(14, 10, depth);
+        s.drop_unconfirmed(2.0);
+        for i in 0..140 {
+            let (x, y) = (i % 14, i / 14);
+            let expected = match depth(x, y) {
+                None => Some(NoPoint::NoLight),
+                Some(_) if x < 6 => None,
+                Some(_) => Some(NoPoint::Unconfirmed),
+            };
+            assert_eq!(s.no_point[i], expected, "pixel ({x}, {y})");
+            assert_eq!(
+                s.point_mm[i].is_some(),
+                expected.is_none(),
+                "pixel ({x}, {y})"
+            );
+        }
+        assert_eq!(s.no_point_counts().unconfirmed, 16 + 4);
     }
 }

@@ -73,23 +73,22 @@ const BOUNDS: [(&str, &str, f64, f64, f64); 8] = [
     ("plane_mirror", "EFSM x2", 0.001, 0.95, 0.005),
     ("vgroove", "BFSM", 0.001, 0.99, 0.001),
     ("vgroove", "EFSM x2", 0.001, 0.99, 0.001),
-    // The tests take 8 of the band's 3,946 right points (none before the decoder's runs had
-    // feet, which added right points the edge test now judges; 75 of the whole image's 23,714,
-    // 0.32%).
+    // The tests take 0.15% of the band's 3,946 right points and 0.3% of the whole image's
+    // 23,713 (none before the decoder's runs had feet, which added right points the edge test
+    // now judges).
     ("vgroove_glossy", "BFSM", 0.001, 0.96, 0.004),
-    // EFSM under a broad glossy lobe: the decoder's wrong candidates (issue 12), not the
-    // selection's; the edge test takes right points there too (neighbours that chose among
-    // wrong candidates look like edges). Bounded so that it cannot get worse unnoticed. Since
-    // the decoder reads a run with its feet (issue 12) the whole image is at 5.2% wrong and 77%
-    // complete (13.7% and 49% before), and its rows 100..140 hold 263 wrong points (369
-    // before); this band scanned alone went from 413 to 685 wrong points and from 32% to 35%
-    // complete (its selection has 40 rows to judge from). Since fictitious choices give way to
-    // a light that continues their neighbours' surface, the band has 800 wrong points and is
-    // 48% complete (its few rows' wrong points are neighbours too); the whole image keeps its
-    // 1,055 wrong points and is 78.3% complete (77.3% before). With the crease test: the band
-    // 772 wrong, 47.4% complete; the whole image 847 wrong (4.22%), 77.5% complete.
-    ("vgroove_glossy", "EFSM x2", 0.34, 0.30, 0.16),
+    // EFSM under a broad glossy lobe: the decoder misses the direct light where a facet's
+    // reflection outshines it (issue 12), and a band of 40 rows gives the selection too little
+    // to judge from: this band keeps 663 wrong points (27%) and is 42% complete, where the
+    // whole image is at 0.087% wrong and 69% complete. Since a point must be confirmed by its
+    // neighbourhood (`Surface::drop_unconfirmed`) the tests cost 15% of the whole image's right
+    // points here (its facets' points are noisy), and take its wrong points from 4.22% to
+    // 0.087%. Bounded so that it cannot get worse unnoticed.
+    ("vgroove_glossy", "EFSM x2", 0.30, 0.38, 0.20),
 ];
+
+/// The share of wrong points every scene keeps over its whole image (issue 13's goal).
+const WHOLE_IMAGE_WRONG: f64 = 0.001;
 
 /// The rows of a scene the default run scans: rows 100..140, except on `sphere_mirror`, which
 /// is scanned whole. Its mirror is found from the pixels that see, through it, wall the
@@ -104,7 +103,8 @@ fn band(scene: &str) -> Range<u32> {
 }
 
 /// Scans every scene with both plans, with the tests off and on, and prints the figures: the
-/// band of each scene, or whole images. The tests never add a wrong point and keep [`BOUNDS`].
+/// band of each scene, or whole images. The tests never add a wrong point and keep [`BOUNDS`];
+/// on whole images every scene keeps the issue's goal, at most 0.1% of the points wrong.
 fn right_or_absent(whole: bool) {
     let system = System::bench();
     let plans = [
@@ -142,6 +142,13 @@ fn right_or_absent(whole: bool) {
                 failures.push(format!(
                     "{scene} {name}: right points {} -> {}, wrong {} -> {}",
                     off.0.lit_right, on.0.lit_right, off.0.wrong, on.0.wrong
+                ));
+            }
+            if whole && on.1 > WHOLE_IMAGE_WRONG {
+                failures.push(format!(
+                    "{scene} {name}: {:.3}% wrong on the whole image (goal {:.1}%)",
+                    100.0 * on.1,
+                    100.0 * WHOLE_IMAGE_WRONG
                 ));
             }
             if !whole && (on.1 > bound.2 || on.2 < bound.3) {

@@ -95,8 +95,9 @@ pub struct SelectionArgs {
     keep_fictitious: bool,
     /// Keep the points of pixels that straddle a depth edge (a neighbour chose a point on
     /// another surface, and the pixel holds that surface's light too: its point may be on
-    /// either side) or a crease (its point lies on none of its neighbours' surfaces); by
-    /// default they get no point.
+    /// either side) or a crease (its point lies on none of its neighbours' surfaces), and the
+    /// points no neighbourhood confirms (specks, strips 1-2 pixels wide); by default they get
+    /// no point.
     #[arg(long)]
     keep_edges: bool,
     /// Give no point to a pixel whose light is weaker than this many times the noise RMS of

@@ -233,6 +233,7 @@ fn a_mirror_is_found_and_what_it_hides_and_mixed_pixels_get_no_point() {
     assert_eq!(off["mirrors"].as_array().unwrap().len(), 0, "{off}");
     assert_eq!(off["no_point"]["behind_mirror"], 0, "{off}");
     assert_eq!(off["no_point"]["edge"], 0, "{off}");
+    assert_eq!(off["no_point"]["unconfirmed"], 0, "{off}");
     assert_eq!(off["selection"]["drop_edges"], false, "{off}");
     assert!(
         off["truth"]["wrong_share"].as_f64().unwrap() > 0.05,
@@ -281,7 +282,9 @@ fn a_candidate_file_scans_to_the_surface_of_its_capture_byte_for_byte() {
         serde_json::from_slice(&fs::read(dir.join("summary.json")).unwrap()).unwrap()
     };
     let (a, b) = (summary(&from_dump), summary(&from_file));
-    assert!(a["points"].as_u64().unwrap() > 64 * 48 / 3, "{a}");
+    // A surface to compare: at 64 × 48 a pixel sees 12 projector columns, and the scan keeps
+    // a fifth of the pixels (its neighbourhoods confirm few points this coarse).
+    assert!(a["points"].as_u64().unwrap() > 64 * 48 / 8, "{a}");
     for field in ["points", "candidates", "candidates_in_volume", "no_point"] {
         assert_eq!(a[field], b[field], "{field}");
     }
