@@ -153,14 +153,104 @@ pub fn write_map_png(
     height: u32,
     scale: &Scale<'_>,
 ) -> Result<()> {
+    write_png(path, picture(values, width, height, scale))
+}
+
+/// Writes a picture (`(pixels, width, height)`, RGB) as PNG at `path`, whole or not at all.
+fn write_png(path: &Path, picture: std::result::Result<(Vec<u8>, u32, u32), String>) -> Result<()> {
     let encode = |message: String| Error::Encode {
         path: path.to_path_buf(),
         message,
     };
-    let (rgb, pw, ph) = picture(values, width, height, scale).map_err(encode)?;
+    let (rgb, pw, ph) = picture.map_err(encode)?;
     let mut file = StagedFile::create(path)?;
     image_files::write_png_rgb8(file.writer(), pw, ph, &rgb).map_err(|e| encode(e.0))?;
     file.commit()
+}
+
+/// One category of a [`category_picture`]: its legend line and its colour.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Category {
+    /// The legend's text for it (a name, a count).
+    pub label: String,
+    /// Its colour in the map.
+    pub colour: [u8; 3],
+}
+
+/// Columns of pixels the legend of a [`category_picture`] takes beside the map.
+pub const LEGEND_PANEL_PX: u32 = 190;
+
+/// Rows of pixels one legend line takes.
+const LEGEND_LINE_PX: u32 = 16;
+
+/// The RGB picture of a map of categories (`codes[i]` indexes `categories`; `width × height`,
+/// row-major) with its legend on the right, one line per category: `(pixels, picture width,
+/// picture height)`. The map's pixels are exactly their category's colour.
+pub fn category_picture(
+    codes: &[u8],
+    width: u32,
+    height: u32,
+    categories: &[Category],
+) -> std::result::Result<(Vec<u8>, u32, u32), String> {
+    if codes.len() != width as usize * height as usize {
+        return Err(format!("{} codes for a {width}x{height} map", codes.len()));
+    }
+    if let Some(&code) = codes.iter().find(|&&c| c as usize >= categories.len()) {
+        return Err(format!(
+            "code {code} in a map of {} categories",
+            categories.len()
+        ));
+    }
+    let legend = 8 + LEGEND_LINE_PX * categories.len() as u32;
+    let (pw, ph) = (width + LEGEND_PANEL_PX, height.max(legend));
+    let mut rgb = vec![255u8; pw as usize * ph as usize * 3];
+    for (i, &code) in codes.iter().enumerate() {
+        let (x, y) = (i % width as usize, i / width as usize);
+        let at = (y * pw as usize + x) * 3;
+        rgb[at..at + 3].copy_from_slice(&categories[code as usize].colour);
+    }
+    let x0 = width as usize + 8;
+    for (k, category) in categories.iter().enumerate() {
+        let top = 6 + LEGEND_LINE_PX as usize * k;
+        for y in top..top + 10 {
+            for x in x0..x0 + 10 {
+                let at = (y * pw as usize + x) * 3;
+                rgb[at..at + 3].copy_from_slice(&category.colour);
+            }
+        }
+    }
+    register_font();
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (pw, ph)).into_drawing_area();
+        let style = TextStyle::from((FONT, 12).into_font()).color(&BLACK);
+        for (k, category) in categories.iter().enumerate() {
+            let top = 6 + (LEGEND_LINE_PX as usize * k) as i32;
+            root.draw(&Rectangle::new(
+                [(x0 as i32 - 1, top - 1), (x0 as i32 + 10, top + 10)],
+                BLACK,
+            ))
+            .map_err(|e| e.to_string())?;
+            root.draw(&Text::new(
+                category.label.clone(),
+                (x0 as i32 + 16, top - 1),
+                style.clone(),
+            ))
+            .map_err(|e| e.to_string())?;
+        }
+        root.present().map_err(|e| e.to_string())?;
+    }
+    Ok((rgb, pw, ph))
+}
+
+/// Writes [`category_picture`] as PNG at `path`, whole or not at all.
+pub fn write_category_png(
+    path: &Path,
+    codes: &[u8],
+    width: u32,
+    height: u32,
+    categories: &[Category],
+) -> Result<()> {
+    write_png(path, category_picture(codes, width, height, categories))
 }
 
 #[cfg(test)]
@@ -222,5 +312,37 @@ mod tests {
         assert!(picture(&[0.0; 5], 2, 2, &scale).is_err());
         assert_eq!(scale.colour(1.0), [255, 255, 255]);
         assert_eq!(scale.colour(-3.0), [0, 0, 0]);
+    }
+
+    #[test]
+    fn a_category_map_keeps_its_pixels_and_its_legend_shows_every_colour() {
+        let (w, h) = (30u32, 20u32);
+        let categories: Vec<Category> = [[200, 200, 200], [255, 0, 0], [0, 0, 255]]
+            .into_iter()
+            .enumerate()
+            .map(|(k, colour)| Category {
+                label: format!("category {k}"),
+                colour,
+            })
+            .collect();
+        let codes: Vec<u8> = (0..w * h).map(|i| (i % 3) as u8).collect();
+        let (rgb, pw, ph) = category_picture(&codes, w, h, &categories).unwrap();
+        assert_eq!(pw, w + LEGEND_PANEL_PX);
+        assert!(ph >= h && ph >= 8 + 3 * LEGEND_LINE_PX);
+        let pixel = |x: u32, y: u32| {
+            let at = (y * pw + x) as usize * 3;
+            [rgb[at], rgb[at + 1], rgb[at + 2]]
+        };
+        for (i, &code) in codes.iter().enumerate() {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            assert_eq!(pixel(x, y), categories[code as usize].colour);
+        }
+        // Each legend line's swatch, inside its frame.
+        for (k, category) in categories.iter().enumerate() {
+            let y = 6 + LEGEND_LINE_PX * k as u32 + 5;
+            assert_eq!(pixel(w + 8 + 5, y), category.colour, "line {k}");
+        }
+        assert!(category_picture(&[3], 1, 1, &categories).is_err());
+        assert!(category_picture(&[0, 0], 1, 1, &categories).is_err());
     }
 }

@@ -1,19 +1,21 @@
 //! What `fsm scan` writes: `points.ply` (binary little-endian: x y z mm, intensity, quality,
 //! pixel x y), `depth.tiff`, `column.tiff` and `quality.tiff` (32-bit float, NaN where none),
 //! `direct.png` and `indirect.png` (eqs. 12–13, one shared scale), `depth.png` (coloured
-//! preview), each picture with a colour bar labelled in its unit (`fsm_io::map_picture`), and
+//! preview), each picture with a colour bar labelled in its unit (`fsm_io::map_picture`),
+//! `no_point.tiff` (8-bit: 0 where a pixel has a point, else its reason's
+//! [`NoPoint::code`]) with `no_point.png` (the same in colours, with a legend), and
 //! `summary.json` (counts, pixels without a point by reason, timings, parameters).
 
 use std::path::Path;
 
-use fsm_io::image_files::write_tiff_f32;
-use fsm_io::map_picture::{write_map_png, Palette, Scale};
+use fsm_io::image_files::{write_tiff_f32, write_tiff_gray8};
+use fsm_io::map_picture::{write_category_png, write_map_png, Category, Palette, Scale};
 use fsm_io::outputs::{write_file, StagedFile};
 use fsm_io::{Error, Result};
 use serde::Serialize;
 
 use crate::ply::write_ply;
-use crate::surface::{NoPointCounts, Surface};
+use crate::surface::{NoPoint, NoPointCounts, Surface};
 
 /// The contents of `summary.json`.
 #[derive(Clone, Debug, Serialize)]
@@ -214,9 +216,56 @@ pub fn write_scan(dir: &Path, surface: &Surface, summary: &ScanSummary) -> Resul
         palette: Palette::Viridis,
     };
     write_map_png(&dir.join("depth.png"), &depth, w, h, &depth_scale)?;
+    // Why each pixel has no point: codes for programs, colours for people.
+    let codes = surface.no_point_codes();
+    let path = dir.join("no_point.tiff");
+    let mut bytes = Vec::new();
+    write_tiff_gray8(&mut std::io::Cursor::new(&mut bytes), w, h, &codes).map_err(encode(&path))?;
+    write_file(&path, &bytes)?;
+    write_category_png(
+        &dir.join("no_point.png"),
+        &codes,
+        w,
+        h,
+        &no_point_legend(surface),
+    )?;
     let json = serde_json::to_vec_pretty(summary)
         .map_err(|e| Error::Usage(format!("summary.json: {e}")))?;
     write_file(&dir.join("summary.json"), &json)
+}
+
+/// The colour of a pixel with a point, then of each reason ([`NoPoint::ALL`]) in
+/// `no_point.png`.
+const NO_POINT_COLOURS: [[u8; 3]; 12] = [
+    [190, 190, 190],
+    [0, 0, 0],
+    [70, 70, 70],
+    [255, 127, 14],
+    [188, 189, 34],
+    [140, 86, 75],
+    [227, 119, 194],
+    [148, 103, 189],
+    [214, 39, 40],
+    [31, 119, 180],
+    [44, 160, 44],
+    [23, 190, 207],
+];
+
+/// The legend of `no_point.png`: the pixels with a point, then each reason, with its count.
+fn no_point_legend(surface: &Surface) -> Vec<Category> {
+    let mut counts = [0usize; 12];
+    for code in surface.no_point_codes() {
+        counts[code as usize] += 1;
+    }
+    let names = std::iter::once("point").chain(NoPoint::ALL.iter().map(|r| r.name()));
+    names
+        .zip(NO_POINT_COLOURS)
+        .zip(counts)
+        .map(|((name, colour), count)| Category {
+            label: format!("{name} {count}"),
+            colour,
+        })
+        .collect()
 }
 
 /// The `q` quantile of the finite values (0 if there are none).

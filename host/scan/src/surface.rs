@@ -52,6 +52,49 @@ pub enum NoPoint {
     Unconfirmed,
 }
 
+impl NoPoint {
+    /// Every reason, in the order of their codes (1, 2, …; [`NoPoint::code`]).
+    pub const ALL: [NoPoint; 11] = [
+        NoPoint::NoData,
+        NoPoint::NoLight,
+        NoPoint::Aliased,
+        NoPoint::Unresolved,
+        NoPoint::OutsideVolume,
+        NoPoint::Isolated,
+        NoPoint::LowQuality,
+        NoPoint::Fictitious,
+        NoPoint::BehindMirror,
+        NoPoint::Edge,
+        NoPoint::Unconfirmed,
+    ];
+
+    /// The reason's code in `no_point.tiff`: its place in [`NoPoint::ALL`] plus one (0 is a
+    /// pixel with a point).
+    pub fn code(self) -> u8 {
+        1 + NoPoint::ALL
+            .iter()
+            .position(|&r| r == self)
+            .expect("listed") as u8
+    }
+
+    /// The reason's name, its key in `summary.json`'s `no_point`.
+    pub fn name(self) -> &'static str {
+        match self {
+            NoPoint::NoData => "no_data",
+            NoPoint::NoLight => "no_light",
+            NoPoint::Aliased => "aliased",
+            NoPoint::Unresolved => "unresolved",
+            NoPoint::OutsideVolume => "outside_volume",
+            NoPoint::Isolated => "isolated",
+            NoPoint::LowQuality => "low_quality",
+            NoPoint::Fictitious => "fictitious",
+            NoPoint::BehindMirror => "behind_mirror",
+            NoPoint::Edge => "edge",
+            NoPoint::Unconfirmed => "unconfirmed",
+        }
+    }
+}
+
 /// Pixels without a point, by reason (`summary.json`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct NoPointCounts {
@@ -352,6 +395,15 @@ impl Surface {
             } += 1;
         }
         counts
+    }
+
+    /// Every pixel's [`NoPoint::code`], 0 where it has a point: the record of why each
+    /// pixel without a point has none (`no_point.tiff`).
+    pub fn no_point_codes(&self) -> Vec<u8> {
+        self.no_point
+            .iter()
+            .map(|r| r.map_or(0, NoPoint::code))
+            .collect()
     }
 
     /// Depth (camera `z`, mm) per pixel, `NaN` where none.
@@ -737,5 +789,24 @@ mod tests {
             );
         }
         assert_eq!(s.no_point_counts().unconfirmed, 16 + 4);
+    }
+
+    #[test]
+    fn every_reason_has_its_code_and_its_summary_key() {
+        let mut s = surface_of(3, 4, |_, _| Some(500.0));
+        for (i, reason) in NoPoint::ALL.into_iter().enumerate() {
+            assert_eq!(reason.code() as usize, i + 1);
+            s.no_point[i] = Some(reason);
+            s.point_mm[i] = None;
+        }
+        let codes = s.no_point_codes();
+        assert_eq!(&codes[..11], &(1..=11).collect::<Vec<u8>>()[..]);
+        assert_eq!(codes[11], 0, "the pixel with a point");
+        // Each name is the key its count has in summary.json, and every key is a name.
+        let json = serde_json::to_value(s.no_point_counts()).unwrap();
+        assert_eq!(json.as_object().unwrap().len(), NoPoint::ALL.len());
+        for reason in NoPoint::ALL {
+            assert_eq!(json[reason.name()], 1, "{}", reason.name());
+        }
     }
 }

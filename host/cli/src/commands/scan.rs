@@ -31,6 +31,8 @@ use super::{CaptureArgs, DecodeArgs, OutDir};
 ///   quality.tiff               32-bit float per pixel: the point's signal-to-noise ratio
 ///   direct.png, indirect.png   direct and indirect light (paper eqs. 12-13), one scale (DN bar)
 ///   depth.png                  coloured depth, 1st-99th percentile (mm bar; black: no point)
+///   no_point.tiff, no_point.png  why each pixel has no point: 8-bit reason codes (0: it has
+///                              one; docs/scan.md lists them), and in colours with a legend
 ///   summary.json               counts (pixels without a point by reason), timings, parameters
 ///
 /// Examples:
