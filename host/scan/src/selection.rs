@@ -401,7 +401,12 @@ fn data_cost(amplitude: f32, strongest: f32) -> f32 {
 /// The strongest amplitude among a pixel's candidates (0 for none).
 #[inline(always)]
 fn strongest(labels: &[Label]) -> f32 {
-    labels.iter().map(|l| l.amplitude).fold(0.0f32, f32::max)
+    // `f32::max` without its NaN test, which a running maximum from 0 never needs (a NaN
+    // amplitude is skipped either way); a zero's sign does not change a data term.
+    labels
+        .iter()
+        .map(|l| l.amplitude)
+        .fold(0.0f32, |m, a| if a > m { a } else { m })
 }
 
 /// Candidates of a pixel in one [`Group`], one vector lane each.
@@ -432,28 +437,64 @@ struct Group {
     /// `C(v, l)`; +∞ in unused lanes, so their path costs are +∞ (or NaN), which [`least`]
     /// never takes from its second operand: a previous group can be used whole.
     data: [f32; LANES],
-    /// Candidates in it, 1 to [`LANES`]; the other lanes repeat the first's point.
+    /// Candidates in it, 1 to [`LANES`]; 0 for a pixel without candidates. The other lanes
+    /// repeat the first's point.
     len: u32,
     /// Its first candidate's index in the field.
     label: u32,
 }
 
+impl Group {
+    /// The group of `chunk`, 1 to [`LANES`] candidates from the field's `label`-th, whose
+    /// pixel's strongest amplitude is `strongest`.
+    #[inline(always)]
+    fn new(chunk: &[Label], label: usize, strongest: f32) -> Self {
+        // The other lanes repeat the first candidate: every lane then reads a candidate, and
+        // the full group, nearly every pixel's, has no loop of unknown length.
+        let lanes: [&Label; LANES] = match <&[Label; LANES]>::try_from(chunk) {
+            Ok(full) => full.each_ref(),
+            Err(_) => std::array::from_fn(|k| chunk.get(k).unwrap_or(&chunk[0])),
+        };
+        let n = chunk.len();
+        let data = lanes.map(|l| data_cost(l.amplitude, strongest));
+        Group {
+            x: lanes.map(|l| l.point_mm[0]),
+            y: lanes.map(|l| l.point_mm[1]),
+            z: lanes.map(|l| l.point_mm[2]),
+            data: std::array::from_fn(|k| if k < n { data[k] } else { f32::INFINITY }),
+            len: n as u32,
+            label: label as u32,
+        }
+    }
+}
+
 /// One row as a sweep visits it: its pixels' groups and their path costs in each of the
-/// sweep's `ND` directions.
+/// sweep's `ND` directions. A pixel's first group sits at its own index, so a previous pixel
+/// is found without a table; nearly every pixel has at most [`LANES`] candidates.
 struct Row<const ND: usize> {
-    /// Pixel `a` (the `a`-th visited) holds `groups[first[a + PAD]..first[a + PAD + 1]]`.
-    first: Vec<u32>,
-    groups: Vec<Group>,
-    /// `L_r` of group `g` and direction `d` at `[g][d]`.
+    /// Pixel `a` (the `a`-th visited) has its first group in slot `a + PAD`.
+    slots: Vec<Group>,
+    /// `L_r` of slot `p`'s group and direction `d` at `[p][d]`.
     costs: Vec<[[f32; LANES]; ND]>,
+    /// The groups after a slot's first (more than [`LANES`] candidates): slot `p`'s are
+    /// `more[more_first[p]..more_first[p + 1]]`.
+    more_first: Vec<u32>,
+    more: Vec<Group>,
+    more_costs: Vec<[[f32; LANES]; ND]>,
+    /// Whether slots `p − PAD..=p + PAD` hold one group each: then every previous pixel of
+    /// slot `p` in this row has exactly one.
+    plain: Vec<bool>,
 }
 
 impl<const ND: usize> Default for Row<ND> {
     fn default() -> Self {
         Row {
-            first: Vec::new(),
-            groups: Vec::new(),
+            slots: Vec::new(),
             costs: Vec::new(),
+            more_first: Vec::new(),
+            more: Vec::new(),
+            more_costs: Vec::new(),
+            plain: Vec::new(),
         }
     }
 }
@@ -461,8 +502,12 @@ impl<const ND: usize> Default for Row<ND> {
 impl<const ND: usize> Row<ND> {
     /// A row of `width` pixels without candidates.
     fn empty(width: usize) -> Self {
+        let slots = width + 2 * PAD;
         Row {
-            first: vec![0; width + 2 * PAD + 1],
+            slots: vec![Group::default(); slots],
+            costs: vec![[[0.0; LANES]; ND]; slots],
+            more_first: vec![0; slots + 1],
+            plain: vec![false; slots],
             ..Row::default()
         }
     }
@@ -472,36 +517,63 @@ impl<const ND: usize> Row<ND> {
     #[inline(always)]
     fn fill(&mut self, field: &CandidateField, y: usize, order: Order) {
         let w = field.width;
-        self.first.clear();
-        self.groups.clear();
-        self.first.extend([0; PAD]);
+        let slots = w + 2 * PAD;
+        self.slots.clear();
+        self.slots.resize(slots, Group::default());
+        self.more_first.clear();
+        self.more.clear();
+        self.more_first.extend([0; PAD]);
         for a in 0..w {
             let x = if order == Order::Raster { a } else { w - 1 - a };
             let i = y * w + x;
             let start = field.starts[i] as usize;
             let here = &field.labels[start..field.starts[i + 1] as usize];
-            self.first.push(self.groups.len() as u32);
+            self.more_first.push(self.more.len() as u32);
             let strongest = strongest(here);
-            for (c, chunk) in here.chunks(LANES).enumerate() {
-                let [x0, y0, z0] = chunk[0].point_mm;
-                let mut group = Group {
-                    x: [x0; LANES],
-                    y: [y0; LANES],
-                    z: [z0; LANES],
-                    data: [f32::INFINITY; LANES],
-                    len: chunk.len() as u32,
-                    label: (start + c * LANES) as u32,
-                };
-                for (k, label) in chunk.iter().enumerate() {
-                    [group.x[k], group.y[k], group.z[k]] = label.point_mm;
-                    group.data[k] = data_cost(label.amplitude, strongest);
-                }
-                self.groups.push(group);
+            // The first group in the pixel's slot, the rest (rare) in `more`.
+            let (first, rest) = here.split_at(here.len().min(LANES));
+            if !first.is_empty() {
+                self.slots[a + PAD] = Group::new(first, start, strongest);
+            }
+            for (c, chunk) in rest.chunks(LANES).enumerate() {
+                self.more
+                    .push(Group::new(chunk, start + (c + 1) * LANES, strongest));
             }
         }
-        let end = self.groups.len() as u32;
-        self.first.extend([end; PAD + 1]);
-        self.costs.resize(self.groups.len(), [[0.0; LANES]; ND]);
+        let end = self.more.len() as u32;
+        self.more_first.extend([end; PAD + 1]);
+        self.plain.clear();
+        self.plain.resize(slots, false);
+        let mut run = 0;
+        for p in 0..slots {
+            let one = self.slots[p].len > 0 && self.more_first[p] == self.more_first[p + 1];
+            run = if one { run + 1 } else { 0 };
+            if run > 2 * PAD {
+                self.plain[p - PAD] = true;
+            }
+        }
+        self.costs.resize(slots, [[0.0; LANES]; ND]);
+        self.more_costs.resize(self.more.len(), [[0.0; LANES]; ND]);
+    }
+
+    /// Slots `a` to `a + 2·PAD` (pixel `a`'s and the two on either side) and their costs.
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    fn window(&self, a: usize) -> (&[Group; 2 * PAD + 1], &[[[f32; LANES]; ND]; 2 * PAD + 1]) {
+        (
+            self.slots[a..=a + 2 * PAD].try_into().unwrap(),
+            self.costs[a..=a + 2 * PAD].try_into().unwrap(),
+        )
+    }
+
+    /// Slot `p`'s groups with their path costs, in the field's order.
+    #[inline(always)]
+    fn groups(&self, p: usize) -> impl Iterator<Item = (&Group, &[[f32; LANES]; ND])> {
+        let more = self.more_first[p] as usize..self.more_first[p + 1] as usize;
+        let first = (self.slots[p].len > 0).then(|| (&self.slots[p], &self.costs[p]));
+        first
+            .into_iter()
+            .chain(self.more[more.clone()].iter().zip(&self.more_costs[more]))
     }
 }
 
@@ -524,7 +596,69 @@ fn sweep(
             return unsafe { avx2::sweep(field, params, directions, order) };
         }
     }
-    sweep_with(field, params, directions, order, |g| *g, fold)
+    portable_sweep(field, params, directions, order)
+}
+
+/// [`sweep`] without vector instructions of its own.
+fn portable_sweep(
+    field: &CandidateField,
+    params: &SelectionParams,
+    directions: &[Step],
+    order: Order,
+) -> Vec<f32> {
+    sweep_with::<Portable>(field, params, directions, order)
+}
+
+/// The instructions a sweep is compiled for: a group's points prepared for [`fold`], a version
+/// of it, and of [`plain_by_fold`].
+trait Version {
+    type Here;
+
+    fn here(group: &Group) -> Self::Here;
+
+    fn fold(
+        here: &Self::Here,
+        there: &Group,
+        previous: &[f32; LANES],
+        best: [f32; LANES],
+        beta: f32,
+        epsilon: f32,
+    ) -> [f32; LANES];
+
+    #[inline(always)]
+    fn plain<const ND: usize>(
+        group: &Group,
+        there: [&Group; ND],
+        previous: [&[f32; LANES]; ND],
+        beta: f32,
+        epsilon: f32,
+    ) -> ([[f32; LANES]; ND], [f32; LANES]) {
+        plain_by_fold::<Self, ND>(group, there, previous, beta, epsilon)
+    }
+}
+
+/// [`fold`] as it is.
+struct Portable;
+
+impl Version for Portable {
+    type Here = Group;
+
+    #[inline(always)]
+    fn here(group: &Group) -> Group {
+        *group
+    }
+
+    #[inline(always)]
+    fn fold(
+        here: &Group,
+        there: &Group,
+        previous: &[f32; LANES],
+        best: [f32; LANES],
+        beta: f32,
+        epsilon: f32,
+    ) -> [f32; LANES] {
+        fold(here, there, previous, best, beta, epsilon)
+    }
 }
 
 /// `min_{l'} (L_r(v − r, l') + S(l, l'))` for a group's candidates `l`, one lane each, carried
@@ -554,6 +688,41 @@ fn fold(
         }
     }
     best
+}
+
+/// `L_r` of `group` in every direction `d` whose previous pixel holds exactly one group,
+/// `there[d]` with path costs `previous[d]`, and their sum in the directions' order.
+#[inline(always)]
+fn plain_by_fold<V: Version + ?Sized, const ND: usize>(
+    group: &Group,
+    there: [&Group; ND],
+    previous: [&[f32; LANES]; ND],
+    beta: f32,
+    epsilon: f32,
+) -> ([[f32; LANES]; ND], [f32; LANES]) {
+    let prepared = V::here(group);
+    let paths: [[f32; LANES]; ND] = std::array::from_fn(|d| {
+        let mut floor = f32::INFINITY;
+        for &cost in previous[d] {
+            floor = least(floor, cost);
+        }
+        let best = V::fold(
+            &prepared,
+            there[d],
+            previous[d],
+            [f32::INFINITY; LANES],
+            beta,
+            epsilon,
+        );
+        std::array::from_fn(|k| group.data[k] + best[k] - floor)
+    });
+    let mut total = [0.0f32; LANES];
+    for path in &paths {
+        for k in 0..LANES {
+            total[k] += path[k];
+        }
+    }
+    (paths, total)
 }
 
 /// Four lanes in and out of an SSE register, for both vector versions of [`fold`].
@@ -590,14 +759,32 @@ mod avx2 {
         directions: &[Step],
         order: Order,
     ) -> Vec<f32> {
-        sweep_with(
-            field,
-            params,
-            directions,
-            order,
-            Here::new,
-            |h, t, p, b, beta, e| fold(h, t, p, b, beta, e),
-        )
+        sweep_with::<Avx2>(field, params, directions, order)
+    }
+
+    /// [`sweep`]'s version.
+    pub(super) struct Avx2;
+
+    impl Version for Avx2 {
+        type Here = Here;
+
+        #[inline(always)]
+        fn here(group: &Group) -> Here {
+            Here::new(group)
+        }
+
+        #[inline(always)]
+        fn fold(
+            here: &Here,
+            there: &Group,
+            previous: &[f32; LANES],
+            best: [f32; LANES],
+            beta: f32,
+            epsilon: f32,
+        ) -> [f32; LANES] {
+            // SAFETY: `sweep`, the only user of `Avx2`, runs with AVX2.
+            unsafe { fold(here, there, previous, best, beta, epsilon) }
+        }
     }
 
     /// A group's points, each coordinate's lanes twice (for two previous candidates).
@@ -680,7 +867,7 @@ mod avx512 {
     use super::*;
     use std::arch::x86_64::*;
 
-    /// [`super::sweep_with`] for AVX-512 and [`fold`].
+    /// [`super::sweep_with`] for AVX-512, [`fold`] and [`plain`].
     #[target_feature(enable = "avx512f")]
     pub(super) fn sweep(
         field: &CandidateField,
@@ -688,14 +875,44 @@ mod avx512 {
         directions: &[Step],
         order: Order,
     ) -> Vec<f32> {
-        sweep_with(
-            field,
-            params,
-            directions,
-            order,
-            Here::new,
-            |h, t, p, b, beta, e| fold(h, t, p, b, beta, e),
-        )
+        sweep_with::<Avx512>(field, params, directions, order)
+    }
+
+    /// [`sweep`]'s version.
+    pub(super) struct Avx512;
+
+    impl Version for Avx512 {
+        type Here = Here;
+
+        #[inline(always)]
+        fn here(group: &Group) -> Here {
+            Here::new(group)
+        }
+
+        #[inline(always)]
+        fn fold(
+            here: &Here,
+            there: &Group,
+            previous: &[f32; LANES],
+            best: [f32; LANES],
+            beta: f32,
+            epsilon: f32,
+        ) -> [f32; LANES] {
+            // SAFETY: `sweep`, the only user of `Avx512`, runs with AVX-512F.
+            unsafe { fold(here, there, previous, best, beta, epsilon) }
+        }
+
+        #[inline(always)]
+        fn plain<const ND: usize>(
+            group: &Group,
+            there: [&Group; ND],
+            previous: [&[f32; LANES]; ND],
+            beta: f32,
+            epsilon: f32,
+        ) -> ([[f32; LANES]; ND], [f32; LANES]) {
+            // SAFETY: as for `fold`.
+            unsafe { plain(group, there, previous, beta, epsilon) }
+        }
     }
 
     /// A group's points, each coordinate's lanes four times (once per previous candidate).
@@ -719,6 +936,16 @@ mod avx512 {
         }
     }
 
+    /// Lane `4j + k` takes lane `j` of four.
+    #[inline(always)]
+    fn spread(v: &[f32; LANES]) -> __m512 {
+        // SAFETY: `sweep`, the only caller, runs with AVX-512F.
+        unsafe {
+            let spread = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
+            _mm512_permutexvar_ps(spread, _mm512_castps128_ps512(load(v)))
+        }
+    }
+
     /// [`super::fold`], the same operations per step. The least over the previous candidates
     /// is taken as a tree (halves, then quarters) instead of one after another: the same value,
     /// as a minimum does not round, once a NaN step (which the sequential fold skips, as
@@ -733,10 +960,6 @@ mod avx512 {
         beta: f32,
         epsilon: f32,
     ) -> [f32; LANES] {
-        // Lane `4j + k` takes lane `j` of four.
-        let spread = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
-        let spread =
-            |v: &[f32; LANES]| _mm512_permutexvar_ps(spread, _mm512_castps128_ps512(load(v)));
         let (ex, ey, ez) = (
             _mm512_sub_ps(here.x, spread(&there.x)),
             _mm512_sub_ps(here.y, spread(&there.y)),
@@ -765,39 +988,188 @@ mod avx512 {
         // `least(a, b)` is `b < a ? b : a`, that is `min(b, a)`.
         store(_mm_min_ps(quarters, load(&best)))
     }
+
+    /// The least of lanes `4i` to `4i + 3` of `a` in lane `4i`, and of `b` in lane `4i + 2`,
+    /// with [`least`]'s outcome one lane after another: on a tie the earlier lane's value (the
+    /// same bits even for ±0). NaN lanes must be made +∞ first.
+    #[inline(always)]
+    fn least_of_fours(a: __m512, b: __m512) -> __m512 {
+        // SAFETY: `sweep`, the only caller, runs with AVX-512F.
+        unsafe {
+            // Lanes 0, 2 of `a`, then of `b`; and lanes 1, 3.
+            let even = _mm512_shuffle_ps::<0b10_00_10_00>(a, b);
+            let odd = _mm512_shuffle_ps::<0b11_01_11_01>(a, b);
+            // `least(x, y)` is `min(y, x)`: the later lane only where it is less.
+            let pairs = _mm512_min_ps(odd, even);
+            _mm512_min_ps(_mm512_permute_ps::<0b10_11_00_01>(pairs), pairs)
+        }
+    }
+
+    /// A group's four lanes in each quarter, NaN made +∞.
+    #[inline(always)]
+    fn four(v: &[f32; LANES]) -> __m512 {
+        // SAFETY: `sweep`, the only caller, runs with AVX-512F.
+        unsafe {
+            _mm512_min_ps(
+                _mm512_broadcast_f32x4(load(v)),
+                _mm512_set1_ps(f32::INFINITY),
+            )
+        }
+    }
+
+    /// `L_r(v − r, j) + S(j, k)` in lane `4k + j` for a group spread over `here` (lane
+    /// `4k + j` of candidate `k`), NaN made +∞ (see [`fold`]).
+    #[inline(always)]
+    fn moved(
+        here: &[__m512; 3],
+        there: &Group,
+        previous: &[f32; LANES],
+        beta: __m512,
+        epsilon: __m512,
+    ) -> __m512 {
+        // SAFETY: `sweep`, the only caller, runs with AVX-512F.
+        unsafe {
+            let four = |v: &[f32; LANES]| _mm512_broadcast_f32x4(load(v));
+            let (ex, ey, ez) = (
+                _mm512_sub_ps(here[0], four(&there.x)),
+                _mm512_sub_ps(here[1], four(&there.y)),
+                _mm512_sub_ps(here[2], four(&there.z)),
+            );
+            let squared = _mm512_add_ps(
+                _mm512_add_ps(_mm512_mul_ps(ex, ex), _mm512_mul_ps(ey, ey)),
+                _mm512_mul_ps(ez, ez),
+            );
+            let beyond = _mm512_sub_ps(_mm512_sqrt_ps(squared), epsilon);
+            // `max(a, b)` is `a > b ? a : b`, as in `step_cost`.
+            let step = _mm512_mul_ps(beta, _mm512_max_ps(beyond, _mm512_setzero_ps()));
+            _mm512_min_ps(
+                _mm512_add_ps(four(previous), step),
+                _mm512_set1_ps(f32::INFINITY),
+            )
+        }
+    }
+
+    /// `L_r(v, k) = C(v, k) + best − floor` for two directions, the first in lanes `4k`, the
+    /// second in lanes `4k + 2`, from [`moved`]'s least (see [`least_of_fours`]).
+    #[inline(always)]
+    fn pair(
+        here: &[__m512; 3],
+        data: __m512,
+        there: [&Group; 2],
+        previous: [&[f32; LANES]; 2],
+        beta: __m512,
+        epsilon: __m512,
+    ) -> __m512 {
+        let best = least_of_fours(
+            moved(here, there[0], previous[0], beta, epsilon),
+            moved(here, there[1], previous[1], beta, epsilon),
+        );
+        let floor = least_of_fours(four(previous[0]), four(previous[1]));
+        // SAFETY: `sweep`, the only caller, runs with AVX-512F.
+        unsafe { _mm512_sub_ps(_mm512_add_ps(data, best), floor) }
+    }
+
+    /// [`super::plain_by_fold`] with the roles turned: lane `4k + j` steps from previous
+    /// candidate `j` to candidate `k`, so the previous group is read by a broadcast load
+    /// rather than spread by permutes, and the minima of two directions share their shuffles.
+    /// The same operations per step, and the minima are [`least`]'s (see [`least_of_fours`]).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn plain<const ND: usize>(
+        group: &Group,
+        there: [&Group; ND],
+        previous: [&[f32; LANES]; ND],
+        beta: f32,
+        epsilon: f32,
+    ) -> ([[f32; LANES]; ND], [f32; LANES]) {
+        assert!(ND.is_multiple_of(4));
+        let mut out = [[0.0f32; LANES]; ND];
+        let (hx, hy, hz, data) = (
+            spread(&group.x),
+            spread(&group.y),
+            spread(&group.z),
+            spread(&group.data),
+        );
+        let here = [hx, hy, hz];
+        let (beta, epsilon) = (_mm512_set1_ps(beta), _mm512_set1_ps(epsilon));
+        // Lanes 0, 4, 8, 12 of `a`, then 2, 6, 10, 14; the same of `b`.
+        let gather = _mm512_set_epi32(30, 26, 22, 18, 28, 24, 20, 16, 14, 10, 6, 2, 12, 8, 4, 0);
+        let mut total = _mm_setzero_ps();
+        for (q, out) in out.chunks_exact_mut(4).enumerate() {
+            let d = 4 * q;
+            let (ahead, next) = (
+                pair(
+                    &here,
+                    data,
+                    [there[d], there[d + 1]],
+                    [previous[d], previous[d + 1]],
+                    beta,
+                    epsilon,
+                ),
+                pair(
+                    &here,
+                    data,
+                    [there[d + 2], there[d + 3]],
+                    [previous[d + 2], previous[d + 3]],
+                    beta,
+                    epsilon,
+                ),
+            );
+            let paths = _mm512_permutex2var_ps(ahead, gather, next);
+            total = _mm_add_ps(total, _mm512_castps512_ps128(paths));
+            total = _mm_add_ps(total, _mm512_extractf32x4_ps::<1>(paths));
+            total = _mm_add_ps(total, _mm512_extractf32x4_ps::<2>(paths));
+            total = _mm_add_ps(total, _mm512_extractf32x4_ps::<3>(paths));
+            // SAFETY: sixteen floats either way.
+            let paths = unsafe { std::mem::transmute::<__m512, [[f32; LANES]; 4]>(paths) };
+            out.copy_from_slice(&paths);
+        }
+        (out, store(total))
+    }
 }
 
-/// [`sweep`] with a group's points prepared by `here` for `fold` (a version of [`fold`]).
+/// [`sweep`] for version `V`.
 #[inline(always)]
-fn sweep_with<H>(
+fn sweep_with<V: Version>(
     field: &CandidateField,
     params: &SelectionParams,
     directions: &[Step],
     order: Order,
-    here: impl Fn(&Group) -> H,
-    fold: impl Fn(&H, &Group, &[f32; LANES], [f32; LANES], f32, f32) -> [f32; LANES],
 ) -> Vec<f32> {
     // The number of directions is a constant of the loops: a group's paths are an array, and
     // a row's costs are indexed by group without a multiplication.
     match directions.len() {
         0 => vec![0.0; field.labels.len()],
-        4 => sweep_rows::<4, H>(field, params, directions, order, here, fold),
-        8 => sweep_rows::<8, H>(field, params, directions, order, here, fold),
+        4 => sweep_rows::<4, V>(field, params, directions, order),
+        8 => sweep_rows::<8, V>(field, params, directions, order),
         n => unreachable!("a sweep takes half of 8 or 16 paths, not {n}"),
     }
 }
+
+/// Where the previous pixel of each of a sweep's directions is in the sweep's own frame, for
+/// both sweeps of [`Paths::directions`]: its slot relative to the current pixel's
+/// `slot − PAD`, and the rows back. As constants, the one-group step finds its previous
+/// pixels without a table or a bounds test.
+const BACK: [(usize, usize); 8] = [
+    (1, 0),
+    (2, 1),
+    (1, 1),
+    (3, 1),
+    (0, 1),
+    (4, 1),
+    (1, 2),
+    (3, 2),
+];
 
 /// [`sweep_with`] for `ND` directions.
 ///
 /// A row's points are gathered once into [`Group`]s for all the sweep's directions.
 #[inline(always)]
-fn sweep_rows<const ND: usize, H>(
+fn sweep_rows<const ND: usize, V: Version>(
     field: &CandidateField,
     params: &SelectionParams,
     directions: &[Step],
     order: Order,
-    here: impl Fn(&Group) -> H,
-    fold: impl Fn(&H, &Group, &[f32; LANES], [f32; LANES], f32, f32) -> [f32; LANES],
 ) -> Vec<f32> {
     let (w, h) = (field.width, field.height);
     let mut sum = vec![0.0f32; field.labels.len()];
@@ -806,8 +1178,8 @@ fn sweep_rows<const ND: usize, H>(
     }
     let (beta, epsilon) = (params.beta_per_mm, params.epsilon_mm);
     // In the order's own frame (pixel `a` of row `s`, both counted as visited) every previous
-    // pixel is `(a − dx, s − dy)` with `dy` 0 to 2 and `dx` −2 to 2: where it is in `first`
-    // relative to `a`, and the rows back.
+    // pixel is `(a − dx, s − dy)` with `dy` 0 to 2 and `dx` −2 to 2: its slot relative to
+    // `a`, and the rows back.
     let back: [(usize, usize); ND] = std::array::from_fn(|d| {
         let (dx, dy) = directions[d];
         let (dx, dy) = if order == Order::Raster {
@@ -818,6 +1190,7 @@ fn sweep_rows<const ND: usize, H>(
         debug_assert!((0..ROWS_KEPT as i32).contains(&dy) && dx.unsigned_abs() as usize <= PAD);
         ((PAD as i32 - dx) as usize, dy as usize)
     });
+    let known = back[..] == BACK[..ND];
     let empty = Row::<ND>::empty(w);
     let mut rows: [Row<ND>; ROWS_KEPT] = std::array::from_fn(|_| Row::default());
     for s in 0..h {
@@ -834,28 +1207,62 @@ fn sweep_rows<const ND: usize, H>(
             }
         });
         for a in 0..w {
-            let (gs, ge) = (row.first[a + PAD] as usize, row.first[a + PAD + 1] as usize);
-            for g in gs..ge {
+            let p = a + PAD;
+            if row.slots[p].len == 0 {
+                continue;
+            }
+            let before_rows = [&row, earlier[0], earlier[1]];
+            if known && before_rows.iter().all(|r| r.plain[p]) {
+                // Every previous pixel has one group: found at fixed places, no list to walk.
+                let windows = before_rows.map(|r| r.window(a));
+                let there: [&Group; ND] = std::array::from_fn(|d| {
+                    let (slot, dy) = BACK[d];
+                    &windows[dy].0[slot]
+                });
+                let previous: [&[f32; LANES]; ND] = std::array::from_fn(|d| {
+                    let (slot, dy) = BACK[d];
+                    &windows[dy].1[slot][d]
+                });
+                let group = &row.slots[p];
+                let (paths, total) = V::plain(group, there, previous, beta, epsilon);
+                let (n, at) = (group.len as usize, group.label as usize);
+                row.costs[p] = paths;
+                if n == LANES {
+                    sum[at..at + LANES].copy_from_slice(&total);
+                } else {
+                    // Element by element: a slice copy of at most three floats calls memcpy.
+                    #[allow(clippy::manual_memcpy)]
+                    for k in 0..n {
+                        sum[at + k] = total[k];
+                    }
+                }
+                continue;
+            }
+            let more = row.more_first[p] as usize..row.more_first[p + 1] as usize;
+            for g in 0..1 + more.len() {
                 let before_rows = [&row, earlier[0], earlier[1]];
-                let group = &row.groups[g];
-                let prepared = here(group);
+                let group = if g == 0 {
+                    &row.slots[p]
+                } else {
+                    &row.more[more.start + g - 1]
+                };
+                let prepared = V::here(group);
                 let paths: [[f32; LANES]; ND] = std::array::from_fn(|d| {
                     let (offset, dy) = back[d];
                     let before = before_rows[dy];
-                    let p = a + offset;
-                    let (ps, pe) = (before.first[p] as usize, before.first[p + 1] as usize);
-                    if ps == pe {
+                    let q = a + offset;
+                    if before.slots[q].len == 0 {
                         // A path starts here: at the border or after a pixel without candidates.
                         return group.data;
                     }
                     let mut floor = f32::INFINITY;
                     let mut best = [f32::INFINITY; LANES];
-                    for (there, costs) in before.groups[ps..pe].iter().zip(&before.costs[ps..pe]) {
+                    for (there, costs) in before.groups(q) {
                         let previous = &costs[d];
                         for &cost in previous {
                             floor = least(floor, cost);
                         }
-                        best = fold(&prepared, there, previous, best, beta, epsilon);
+                        best = V::fold(&prepared, there, previous, best, beta, epsilon);
                     }
                     std::array::from_fn(|k| group.data[k] + best[k] - floor)
                 });
@@ -866,7 +1273,11 @@ fn sweep_rows<const ND: usize, H>(
                     }
                 }
                 let (n, at) = (group.len as usize, group.label as usize);
-                row.costs[g] = paths;
+                if g == 0 {
+                    row.costs[p] = paths;
+                } else {
+                    row.more_costs[more.start + g - 1] = paths;
+                }
                 if n == LANES {
                     sum[at..at + LANES].copy_from_slice(&total);
                 } else {
@@ -1008,15 +1419,29 @@ mod tests {
 
     #[test]
     fn the_sweeps_give_the_paths_of_one_candidate_and_one_direction_at_a_time_bit_for_bit() {
-        // 0 to 9 candidates per pixel (more than one group of lanes, and partial groups), some
-        // within ε of their neighbours', some beyond; a xorshift for the layout.
+        // 0 to 9 candidates per pixel (more than one group of lanes, and partial groups); then
+        // mostly 1 to 4, as in a scan, where most pixels take the one-group path.
+        let few = |r: u64| match r % 40 {
+            0 => 0,
+            1 => 5 + (r >> 8) % 5,
+            _ => 1 + (r >> 8) % 4,
+        };
+        for count in [|r: u64| r % 10, few] {
+            compare_sweeps_with_the_oracle(count);
+        }
+    }
+
+    /// Compares every version of [`sweep`] with [`aggregate_one_at_a_time`], with `count(r)`
+    /// candidates per pixel for a random `r`.
+    fn compare_sweeps_with_the_oracle(count: fn(u64) -> u64) {
+        // Some candidates within ε of their neighbours', some beyond; a xorshift for the layout.
         let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         let mut counts = Vec::new();
         let mut labels = Vec::new();
         let (w, h) = (23, 17);
         for y in 0..h {
             for x in 0..w {
-                let n = (next() % 10) as u32;
+                let n = count(next()) as u32;
                 counts.push(n);
                 for _ in 0..n {
                     let r = next();
@@ -1049,14 +1474,7 @@ mod tests {
                     }
                 }
                 // The portable sweep and each vector version the CPU has.
-                let mut versions = vec![sweep_with(
-                    &field,
-                    &params,
-                    &directions,
-                    order,
-                    |g| *g,
-                    fold,
-                )];
+                let mut versions = vec![portable_sweep(&field, &params, &directions, order)];
                 #[cfg(target_arch = "x86_64")]
                 {
                     if std::arch::is_x86_feature_detected!("avx2") {
