@@ -271,6 +271,23 @@ impl fmt::Display for DeviceState {
     }
 }
 
+/// One line per field, as `fsm camera info` prints them: `protocol version   1`, …, `loaded plan
+/// 0123456789abcdef` (or `none`); no newline at the end.
+impl fmt::Display for DeviceInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "protocol version   {}", self.protocol_version)?;
+        writeln!(f, "max pixels per row {}", self.max_width)?;
+        writeln!(f, "max row samples    {}", self.max_row_samples)?;
+        writeln!(f, "max table floats   {}", self.max_table_floats)?;
+        writeln!(f, "candidates/pixel   {}", self.candidate_capacity)?;
+        writeln!(f, "max frame bytes    {}", self.max_frame_len)?;
+        match self.plan_fingerprint {
+            Some(fingerprint) => write!(f, "loaded plan        {fingerprint:016x}"),
+            None => write!(f, "loaded plan        none"),
+        }
+    }
+}
+
 impl fmt::Display for DeviceError<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {

@@ -411,3 +411,27 @@ fn documented_tags() {
         assert_eq!(bytes[0] as usize, i, "{e:?}");
     }
 }
+
+/// `fsm camera info` prints a camera's limits as `DeviceInfo`'s `Display`: a line per field.
+#[test]
+fn device_info_prints_a_line_per_field() {
+    let mut info = DeviceInfo {
+        protocol_version: 1,
+        max_width: 2048,
+        max_row_samples: 1 << 20,
+        max_table_floats: 65536,
+        candidate_capacity: 8,
+        max_frame_len: 4200,
+        plan_fingerprint: Some(0xab),
+    };
+    let text = info.to_string();
+    assert_eq!(text.lines().count(), 7, "{text}");
+    assert!(text.starts_with("protocol version   1\nmax pixels per row 2048\n"));
+    assert!(text.contains("\ncandidates/pixel   8\n"), "{text}");
+    assert!(
+        text.ends_with("loaded plan        00000000000000ab"),
+        "{text}"
+    );
+    info.plan_fingerprint = None;
+    assert!(info.to_string().ends_with("loaded plan        none"));
+}

@@ -2,20 +2,226 @@
 //! calibration, the captures (a row dump or one 16-bit PNG per frame) and the ground truth as
 //! images; for a calibration target, a pose folder of `fsm calibrate target` with the true
 //! corners. Every file goes through the workspace's one atomic writer (`fsm_io::outputs`); the
-//! caller stages the folder and commits it whole.
+//! caller stages the folder and commits it whole. [`SimulationRequest`] is `fsm simulate`'s
+//! options, checked into a [`Simulation`] before any work.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
+use fsm_calibrate::board::Checkerboard;
 use fsm_core::ScanPlan;
 use fsm_io::image_files::{write_png_gray16, write_png_gray8, write_tiff_f32};
 use fsm_io::outputs::write_file;
-use fsm_io::plan_file::{write_method_plan, write_plan, MethodPlan, Preset};
+use fsm_io::plan_file::{read_method_plan, write_method_plan, write_plan, MethodPlan, Preset};
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 
-use crate::target::{self, BoardPose};
+use crate::target::{self, BoardPose, PrintedBoard};
 use crate::{Capture, PatternSequence, Scene, Sensor, System, TransportSettings};
+
+/// The scene name of the calibration target (not a preset: it takes a board and a pose).
+pub const CHECKERBOARD: &str = "checkerboard";
+
+/// The plan of board scans when neither a plan file nor a preset is given: EFSM, one group, 76
+/// patterns (what the calibration's end-to-end test uses).
+pub const BOARD_PRESET: Preset = Preset::PaperEfsm1;
+
+/// The scenes of `fsm simulate --scene`: the presets, then [`CHECKERBOARD`].
+pub fn scene_names() -> impl Iterator<Item = &'static str> {
+    crate::scene::presets::NAMES
+        .iter()
+        .copied()
+        .chain([CHECKERBOARD])
+}
+
+/// What `fsm simulate` is asked for, as its options give it (its messages name the options).
+/// [`SimulationRequest::resolve`] checks it and reads its files before any work.
+#[derive(Clone, Debug)]
+pub struct SimulationRequest {
+    /// A preset scene's name, or [`CHECKERBOARD`] (`--scene`).
+    pub scene: String,
+    /// A plan file of any method; a board takes FSM plans (`--plan`).
+    pub plan: Option<PathBuf>,
+    /// A preset plan instead, stating the simulated sensor (`--preset`); a board's default is
+    /// [`BOARD_PRESET`].
+    pub preset: Option<Preset>,
+    /// How the captures are made.
+    pub rendering: Rendering,
+    /// A preset scene's frames as `images/0000.png…` instead of `scan.dump` (`--images`).
+    pub images: bool,
+    /// The board's target definition file (`--board`; default [`PrintedBoard::bench`]).
+    pub board: Option<PathBuf>,
+    /// One board pose, written into the output folder itself (`--board-pose`).
+    pub board_pose: Option<BoardPlacement>,
+    /// That many pose folders at the poses of [`SPREAD`] (`--board-poses`).
+    pub board_poses: Option<u8>,
+}
+
+/// A checked [`SimulationRequest`], ready to be written ([`Simulation::write`]).
+pub struct Simulation {
+    rendering: Rendering,
+    subject: Subject,
+}
+
+/// What a [`Simulation`] renders.
+enum Subject {
+    /// A preset scene under a plan ([`write_scene`]).
+    Scene {
+        name: String,
+        scene: Box<Scene>,
+        plan: MethodPlan,
+        images: bool,
+    },
+    /// A printed board at one or more poses ([`write_board_poses`]).
+    Boards {
+        board: PrintedBoard,
+        plan: ScanPlan,
+        poses: Vec<BoardPoseFolder>,
+    },
+}
+
+impl SimulationRequest {
+    /// The simulation asked for: the scene and its plan, or the board, its FSM plan and its
+    /// poses; an error names the option that is missing, misplaced or wrong.
+    pub fn resolve(self) -> Result<Simulation> {
+        let subject = if self.scene == CHECKERBOARD {
+            self.boards()?
+        } else {
+            self.preset_scene()?
+        };
+        Ok(Simulation {
+            rendering: self.rendering,
+            subject,
+        })
+    }
+
+    fn preset_scene(&self) -> Result<Subject> {
+        let board_options = [
+            ("--board", self.board.is_some()),
+            ("--board-pose", self.board_pose.is_some()),
+            ("--board-poses", self.board_poses.is_some()),
+        ];
+        if let Some((option, _)) = board_options.iter().find(|(_, given)| *given) {
+            return Err(Error::Usage(format!(
+                "{option} is for --scene {CHECKERBOARD}, not --scene {}",
+                self.scene
+            )));
+        }
+        let plan = self.plan(None)?;
+        let scene = Box::new(Scene::by_name(&self.scene)?);
+        let (name, images) = (self.scene.clone(), self.images);
+        Ok(Subject::Scene {
+            name,
+            scene,
+            plan,
+            images,
+        })
+    }
+
+    fn boards(&self) -> Result<Subject> {
+        let board = match &self.board {
+            Some(path) => PrintedBoard::new(Checkerboard::read(path)?),
+            None => PrintedBoard::bench(),
+        };
+        // The board's scans are decoded for calibration, which takes FSM plans.
+        let plan = (self.plan(Some(BOARD_PRESET))?.fsm()).map_err(|source| Error::PlanFile {
+            path: self.plan.clone().unwrap_or_default(),
+            source,
+        })?;
+        let poses = match (self.board_pose, self.board_poses) {
+            (Some(p), _) => BoardPoseFolder::one(p),
+            (None, Some(n)) => BoardPoseFolder::spread(n as usize),
+            (None, None) => {
+                return Err(Error::Usage(format!(
+                    "--scene {CHECKERBOARD}: give the board's pose with --board-pose \
+                     YAW,PITCH,ROLL,Z, or --board-poses N for N pose folders"
+                )))
+            }
+        };
+        Ok(Subject::Boards { board, plan, poses })
+    }
+
+    /// The plan of `--plan` (as it is), or of `--preset` (or `default`) stating the simulated
+    /// camera's sensor ([`preset_plan`]), else an error.
+    fn plan(&self, default: Option<Preset>) -> Result<MethodPlan> {
+        match (&self.plan, self.preset.or(default)) {
+            (Some(path), _) => read_method_plan(path),
+            (None, Some(preset)) => Ok(MethodPlan::Fsm(preset_plan(preset))),
+            (None, None) => Err(Error::Usage(format!(
+                "--scene {}: give the plan with --plan FILE or --preset NAME",
+                self.scene
+            ))),
+        }
+    }
+}
+
+impl Simulation {
+    /// Renders the simulation into `dir` (which exists): a scene's folder ([`write_scene`]) or
+    /// the board's pose folders ([`write_board_poses`], `done(pose, seed)` called after each
+    /// pose). The rows rendered are reported to `progress`.
+    pub fn write(
+        &self,
+        dir: &Path,
+        progress: &Progress,
+        done: impl FnMut(&BoardPoseFolder, u64),
+    ) -> Result<Simulated> {
+        let rendering = &self.rendering;
+        Ok(match &self.subject {
+            Subject::Scene {
+                name,
+                scene,
+                plan,
+                images,
+            } => {
+                let capture = write_scene(dir, scene, plan, rendering, *images, progress)?;
+                let (w, h, frames) = (capture.width(), capture.height(), capture.frame_count());
+                Simulated {
+                    what: format!("{name} ({w}x{h}, {frames} frames, seed {})", rendering.seed),
+                    pose_folders: false,
+                }
+            }
+            Subject::Boards { board, plan, poses } => {
+                write_board_poses(dir, plan, rendering, board, poses, progress, done)?;
+                let (w, h) = (rendering.system.width(), rendering.system.height());
+                let (grid, n) = (&board.grid, poses.len());
+                Simulated {
+                    what: format!(
+                        "{CHECKERBOARD} {}x{} board at {n} pose{} ({w}x{h}, {} frames each)",
+                        grid.inner_columns,
+                        grid.inner_rows,
+                        if n == 1 { "" } else { "s" },
+                        plan.sequence_len(),
+                    ),
+                    pose_folders: n > 1,
+                }
+            }
+        })
+    }
+}
+
+/// What a [`Simulation`] wrote, for the message that ends `fsm simulate`.
+#[derive(Clone, Debug)]
+pub struct Simulated {
+    /// `plane (320x240, 770 frames, seed 1)`, `checkerboard 9x6 board at 6 poses (…)`.
+    what: String,
+    /// Pose folders under the output folder (`--board-poses` of 2 or more).
+    pose_folders: bool,
+}
+
+impl Simulated {
+    /// `simulated WHAT -> OUT`, and after pose folders the `fsm calibrate target` command that
+    /// calibrates from them; `out` is where the folder was committed.
+    pub fn message(&self, out: &Path) -> String {
+        let d = out.display();
+        let mut message = format!("simulated {} -> {d}", self.what);
+        if self.pose_folders {
+            message += &format!(
+                "\ncalibrate with: fsm calibrate target --board {d}/board.toml --plan {d}/pose-01/plan.toml --poses {d}/pose-* --bit-depth 12 --out calibration.toml"
+            );
+        }
+        message
+    }
+}
 
 /// How the captures of a simulation folder are made (`fsm simulate --camera --seed
 /// --supersampling`).
@@ -540,6 +746,57 @@ pub fn write_truth(capture: &Capture, dir: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn requests_are_checked_before_any_work() {
+        let request = |scene: &str| SimulationRequest {
+            scene: scene.into(),
+            plan: None,
+            preset: None,
+            rendering: Rendering {
+                system: System::bench_with_camera(32, 24),
+                seed: 1,
+                supersampling: 1,
+            },
+            images: false,
+            board: None,
+            board_pose: None,
+            board_poses: None,
+        };
+        let refusal = |r: SimulationRequest| r.resolve().err().expect("refused").to_string();
+        let no_plan = refusal(request("plane"));
+        assert!(
+            no_plan.contains("--scene plane: give the plan with --plan"),
+            "{no_plan}"
+        );
+        let misplaced = refusal(SimulationRequest {
+            board_poses: Some(3),
+            preset: Some(Preset::PaperBfsm),
+            ..request("plane")
+        });
+        assert!(misplaced.contains("--board-poses is for --scene checkerboard, not --scene plane"));
+        let no_pose = refusal(request(CHECKERBOARD));
+        assert!(
+            no_pose.contains("--board-pose YAW,PITCH,ROLL,Z"),
+            "{no_pose}"
+        );
+        assert!(SimulationRequest {
+            board_poses: Some(2),
+            ..request(CHECKERBOARD)
+        }
+        .resolve()
+        .is_ok());
+        let written = Simulated {
+            what: "checkerboard 9x6 board at 2 poses".into(),
+            pose_folders: true,
+        };
+        let message = written.message(Path::new("boards"));
+        assert!(message.starts_with("simulated checkerboard 9x6 board at 2 poses -> boards\n"));
+        assert!(
+            message.contains("--poses boards/pose-* --bit-depth 12"),
+            "{message}"
+        );
+    }
 
     #[test]
     fn board_pose_folders_are_named_and_labelled() {

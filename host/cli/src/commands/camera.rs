@@ -103,16 +103,7 @@ pub fn camera(args: CameraArgs) -> Result<()> {
             let info = Client::connect(&link.device, link.timeout())
                 .and_then(|mut c| c.hello())
                 .map_err(link.error())?;
-            sayln!("protocol version   {}", info.protocol_version);
-            sayln!("max pixels per row {}", info.max_width);
-            sayln!("max row samples    {}", info.max_row_samples);
-            sayln!("max table floats   {}", info.max_table_floats);
-            sayln!("candidates/pixel   {}", info.candidate_capacity);
-            sayln!("max frame bytes    {}", info.max_frame_len);
-            match info.plan_fingerprint {
-                Some(f) => sayln!("loaded plan        {f:016x}"),
-                None => sayln!("loaded plan        none"),
-            }
+            sayln!("{info}");
             Ok(())
         }
         CameraCommand::Scan {

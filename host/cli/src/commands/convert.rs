@@ -7,7 +7,7 @@ use fsm_io::progress::Progress;
 use fsm_io::stack::Stack;
 use fsm_io::Result;
 
-use super::{BitDepth, MemoryBudget};
+use super::{BitDepth, MemoryBudget, OutFile, PlanFile};
 
 /// Convert a stack of captured images into a row dump (the format the camera streams).
 ///
@@ -18,42 +18,27 @@ use super::{BitDepth, MemoryBudget};
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Plan file the images were captured with, of any method.
-    #[arg(long, value_name = "FILE")]
-    plan: PathBuf,
+    #[command(flatten)]
+    plan: PlanFile,
     /// Folder of captured images (0000.png, 0001.png, …).
     #[arg(long, value_name = "DIR")]
     images: PathBuf,
     #[command(flatten)]
     bit_depth: BitDepth,
-    /// Output dump file.
-    #[arg(long, value_name = "FILE")]
-    out: PathBuf,
-    /// Replace the output file if it exists.
-    #[arg(long)]
-    force: bool,
+    #[command(flatten)]
+    output: OutFile,
     #[command(flatten)]
     memory: MemoryBudget,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    fsm_io::outputs::check_file_target(&args.out, args.force)?;
-    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
+    let out = args.output.check()?;
+    let plan = args.plan.read()?;
     let stack = Stack::open(&args.images, plan, args.bit_depth.bit_depth)?;
-    let header = dump::write_dump_from_stack(
-        plan,
-        &stack,
-        &args.out,
-        args.memory.bytes(),
-        &Progress::stderr(),
-    )?;
-    eprintln!(
-        "wrote {}: {} rows of {} pixels x {} frames, {}-bit",
-        args.out.display(),
-        header.height,
-        header.width,
-        header.frames,
-        header.bit_depth
-    );
+    let budget = args.memory.bytes();
+    let header = dump::write_dump_from_stack(plan, &stack, out, budget, &Progress::stderr())?;
+    let (h, w, frames, bits) = (header.height, header.width, header.frames, header.bit_depth);
+    let out = out.display();
+    eprintln!("wrote {out}: {h} rows of {w} pixels x {frames} frames, {bits}-bit");
     Ok(())
 }

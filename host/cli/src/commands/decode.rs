@@ -1,14 +1,12 @@
 //! `fsm decode`: every candidate of every pixel, from a stack or a dump.
 
-use std::path::PathBuf;
-
 use fsm_io::candidate_file::CANDIDATE_FILE_NAME;
 use fsm_io::column_map::{COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
 use fsm_io::decode;
 use fsm_io::progress::Progress;
 use fsm_io::Result;
 
-use super::{CaptureArgs, DecodeArgs, OutDir};
+use super::{CaptureArgs, DecodeArgs, OutDir, PlanFile};
 
 /// Decode a scan: every projector column that lights each camera pixel.
 ///
@@ -27,10 +25,8 @@ use super::{CaptureArgs, DecodeArgs, OutDir};
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Plan file the capture was made with: FSM's, or a method FSM is compared with
-    /// (`fsm plan --method`).
-    #[arg(long, value_name = "FILE")]
-    plan: PathBuf,
+    #[command(flatten)]
+    plan: PlanFile,
     #[command(flatten)]
     capture: CaptureArgs,
     #[command(flatten)]
@@ -40,7 +36,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
+    let plan = args.plan.read()?;
     let capture = args.capture.open(plan)?;
     let out = &args.output.out;
     let summary = decode::decode_to_dir(

@@ -1,12 +1,8 @@
 //! `fsm demo`: the paper's comparison on a simulated mirror scene, no camera needed (the
 //! experiment is [`fsm_sim::comparison`]).
 
-use std::path::PathBuf;
-
-use fsm_io::outputs::StagedDir;
 use fsm_io::Result;
 use fsm_sim::comparison;
-use fsm_sim::System;
 
 /// Run the paper's comparison on simulated scenes: FSM and the methods it is compared with
 /// (phase shift, Micro Phase Shifting, Code Ensemble, line scanning), with and without a
@@ -39,30 +35,23 @@ use fsm_sim::System;
 ///   fsm demo --out my-demo --camera 640x480
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
+#[command(mut_arg("out", |a| a.required(false).default_value("fsm-demo")))]
 pub struct Args {
-    /// Output folder (created; must not exist or be empty, unless --force).
-    #[arg(long, value_name = "DIR", default_value = "fsm-demo")]
-    out: PathBuf,
-    /// Camera size WxH (same field of view).
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = super::size::<8>)]
-    camera: (u32, u32),
-    /// Noise seed.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Replace the output folder if it exists and is not empty.
-    #[arg(long)]
-    force: bool,
+    #[command(flatten)]
+    output: super::OutDir,
+    #[command(flatten)]
+    bench: super::BenchArgs,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let staged = StagedDir::create(&args.out, args.force)?;
-    let system = System::bench_with_camera(args.camera.0, args.camera.1);
+    let staged = args.output.stage()?;
+    let system = args.bench.system();
     eprintln!(
         "fsm demo: simulating plane_mirror, plane_mirror_covered, sphere_mirror and vgroove_glossy ({}x{} camera)…",
         system.width(),
         system.height()
     );
-    let report = comparison::run(&system, args.seed, staged.path(), |line| {
+    let report = comparison::run(&system, args.bench.seed, staged.path(), |line| {
         eprintln!("  {line}")
     })?;
     comparison::write_reports(staged.path(), &report)?;

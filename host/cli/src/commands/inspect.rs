@@ -1,16 +1,13 @@
 //! `fsm inspect`: pictures of what the decoder sees at a pixel or along a row.
 
-use std::path::PathBuf;
-
 use fsm_core::Group;
 use fsm_io::capture::BadRows;
 use fsm_io::inspect;
-use fsm_io::plan_file;
 use fsm_io::Result;
 
-use super::{BitDepth, CaptureSource};
+use super::{BitDepth, CaptureSource, OutFile, PlanFile};
 
-/// Plot what the decoder sees.
+/// Plot what the decoder sees, as a PNG picture.
 ///
 ///   --pixel X,Y  the pixel's fringe samples against frequency, and against projector
 ///                column what the decoder reads its lights from, the lights marked (paper
@@ -33,9 +30,8 @@ use super::{BitDepth, CaptureSource};
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Scan-plan file the capture was made with.
-    #[arg(long, value_name = "FILE")]
-    plan: PathBuf,
+    #[command(flatten)]
+    plan: PlanFile,
     #[command(flatten)]
     source: CaptureSource,
     #[command(flatten)]
@@ -49,25 +45,21 @@ pub struct Args {
     /// EFSM pattern group shown by --row (1 or 2; default 1).
     #[arg(long, value_name = "G", value_parser = super::named([(Group::One, "1"), (Group::Two, "2")]))]
     group: Option<Group>,
-    /// Output picture (PNG).
-    #[arg(long, value_name = "FILE")]
-    out: PathBuf,
-    /// Replace the output file if it exists.
-    #[arg(long)]
-    force: bool,
+    #[command(flatten)]
+    output: OutFile,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    fsm_io::outputs::check_file_target(&args.out, args.force)?;
-    let plan = plan_file::read_method_plan(&args.plan)?;
+    let out = args.output.check()?;
+    let plan = args.plan.read()?;
     let capture = args.source.open(plan, &args.bit_depth, BadRows::Refuse)?;
     if let Some((x, y)) = args.pixel {
-        let candidates = inspect::draw_pixel(&plan, &capture, x, y, &args.out)?;
-        eprintln!("wrote {}", args.out.display());
+        let candidates = inspect::draw_pixel(&plan, &capture, x, y, out)?;
+        eprintln!("wrote {}", out.display());
         say!("{}", inspect::candidate_lines(&plan, x, y, &candidates));
     } else if let Some(y) = args.row {
-        inspect::draw_row(&plan, &capture, y, args.group, &args.out)?;
-        eprintln!("wrote {}", args.out.display());
+        inspect::draw_row(&plan, &capture, y, args.group, out)?;
+        eprintln!("wrote {}", out.display());
     }
     Ok(())
 }

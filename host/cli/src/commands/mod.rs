@@ -11,14 +11,31 @@ pub mod plan;
 pub mod scan;
 pub mod simulate;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use fsm_io::capture::{BadRows, Capture};
 use fsm_io::decode::DecodeOptions;
-use fsm_io::outputs::StagedDir;
+use fsm_io::outputs::{check_file_target, StagedDir};
 use fsm_io::plan_file::MethodPlan;
-use fsm_io::Result;
+use fsm_io::{Error, Result};
+use fsm_sim::System;
+
+/// The plan file of a command that takes any method (`fsm patterns`, `convert`, `decode`,
+/// `inspect`, `scan`).
+#[derive(clap::Args, Debug)]
+pub struct PlanFile {
+    /// Plan file, of any method (`fsm plan`); for a capture, the plan it was made with.
+    #[arg(long, value_name = "FILE")]
+    pub plan: PathBuf,
+}
+
+impl PlanFile {
+    /// The plan, read and checked.
+    pub fn read(&self) -> Result<MethodPlan> {
+        fsm_io::plan_file::read_method_plan(&self.plan)
+    }
+}
 
 /// Where the captured data is: exactly one of a stack of images or a row dump.
 #[derive(clap::Args, Debug)]
@@ -135,6 +152,55 @@ impl OutDir {
     /// The folder staged under a temporary name (refused if it is in the way).
     pub fn stage(&self) -> Result<StagedDir> {
         StagedDir::create(&self.out, self.force)
+    }
+}
+
+/// A single output file, written whole or not at all (`fsm convert`, `inspect`, `calibrate
+/// target|import|export`).
+#[derive(clap::Args, Debug)]
+pub struct OutFile {
+    /// Output file (written whole or not at all).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl OutFile {
+    /// The file's path, once checked before any work (`fsm_io::outputs::check_file_target`).
+    pub fn check(&self) -> Result<&Path> {
+        check_file_target(&self.out, self.force)?;
+        Ok(&self.out)
+    }
+
+    /// [`OutFile::check`], and never `input`, whatever --force says: `--out OUT is {why}`.
+    pub fn check_not(&self, input: &Path, why: &str) -> Result<&Path> {
+        match (input.canonicalize(), self.out.canonicalize()) {
+            (Ok(a), Ok(b)) if a == b => Err(Error::Usage(format!(
+                "--out {} is {why}",
+                self.out.display()
+            ))),
+            _ => self.check(),
+        }
+    }
+}
+
+/// The simulated bench scanner (`fsm simulate`, `fsm demo`).
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    /// Camera size WxH (same field of view; the footprint shrinks as it grows).
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = size::<8>)]
+    pub camera: (u32, u32),
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+impl BenchArgs {
+    /// The bench with this camera.
+    pub fn system(&self) -> System {
+        System::bench_with_camera(self.camera.0, self.camera.1)
     }
 }
 

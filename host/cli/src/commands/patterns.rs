@@ -19,9 +19,8 @@ use fsm_io::Result;
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Plan file, of any method.
-    #[arg(long, value_name = "FILE")]
-    plan: PathBuf,
+    #[command(flatten)]
+    plan: super::PlanFile,
     #[command(flatten)]
     output: super::OutDir,
     /// Projector height in pixels.
@@ -48,7 +47,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
+    let plan = args.plan.read()?;
     let response_file = args.gamma.as_deref().or(args.calibration.as_deref());
     let response = match (&args.gamma, &args.calibration) {
         (Some(path), _) => Some(ProjectorResponse::read(path)?),

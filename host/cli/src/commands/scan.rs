@@ -9,7 +9,7 @@ use fsm_io::Result;
 use fsm_scan::pipeline::{scan_into, ScanCalibration, ScanCandidates, Truth};
 use fsm_scan::{Paths, SelectionParams};
 
-use super::{CaptureArgs, DecodeArgs, OutDir};
+use super::{CaptureArgs, DecodeArgs, OutDir, PlanFile};
 
 /// Scan a surface: decode the capture, triangulate every candidate, select the direct one.
 ///
@@ -43,10 +43,8 @@ use super::{CaptureArgs, DecodeArgs, OutDir};
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Plan file the capture was made with: FSM's, or a method FSM is compared with
-    /// (`fsm plan --method`).
-    #[arg(long, value_name = "FILE")]
-    plan: PathBuf,
+    #[command(flatten)]
+    plan: PlanFile,
     /// Calibration file of the camera-projector pair (TOML).
     #[arg(long, value_name = "FILE")]
     calibration: PathBuf,
@@ -127,8 +125,8 @@ impl SelectionArgs {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
-    let calibration = ScanCalibration::read_for(&args.calibration, &plan, &args.plan)?;
+    let plan = args.plan.read()?;
+    let calibration = ScanCalibration::read_for(&args.calibration, &plan, &args.plan.plan)?;
     let camera = &calibration.calibration.camera;
     // Read before any work: a bad truth folder fails fast.
     let truth = args.truth.as_deref().map(|dir| Truth::read(dir, camera));

@@ -4,21 +4,12 @@
 
 use std::path::PathBuf;
 
-use fsm_calibrate::board::Checkerboard;
-use fsm_io::plan_file::{MethodPlan, Preset};
+use fsm_io::plan_file::Preset;
 use fsm_io::progress::Progress;
-use fsm_io::{Error, Result};
-use fsm_sim::folder::{self, BoardPlacement, BoardPoseFolder, Rendering, SPREAD};
-use fsm_sim::scene::presets::NAMES;
-use fsm_sim::target::PrintedBoard;
-use fsm_sim::{Scene, System};
-
-/// The scene name of the calibration target (not a preset: it takes a board and a pose).
-pub const CHECKERBOARD: &str = "checkerboard";
-
-/// The plan of board scans when neither --plan nor --preset is given: EFSM, one group, 76
-/// patterns (what the calibration's end-to-end test uses).
-const BOARD_PRESET: Preset = Preset::PaperEfsm1;
+use fsm_io::Result;
+use fsm_sim::folder::{
+    scene_names, BoardPlacement, BoardPoseFolder, Rendering, SimulationRequest, SPREAD,
+};
 
 /// Simulate a scan: the camera's captures of a scene under a plan's patterns.
 ///
@@ -64,10 +55,7 @@ const BOARD_PRESET: Preset = Preset::PaperEfsm1;
 #[command(verbatim_doc_comment)]
 pub struct Args {
     /// Scene: a preset, or checkerboard (described above).
-    #[arg(
-        long,
-        value_parser = clap::builder::PossibleValuesParser::new(NAMES.iter().copied().chain([CHECKERBOARD]))
-    )]
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(scene_names()))]
     scene: String,
     /// Plan file, of any method (`fsm plan --method`); a calibration board takes FSM plans.
     #[arg(long, value_name = "FILE", conflicts_with = "preset")]
@@ -78,12 +66,8 @@ pub struct Args {
     preset: Option<Preset>,
     #[command(flatten)]
     output: super::OutDir,
-    /// Camera size WxH (same field of view; the footprint shrinks as it grows).
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = super::size::<8>)]
-    camera: (u32, u32),
-    /// Noise seed.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    #[command(flatten)]
+    bench: super::BenchArgs,
     /// Rays per pixel along each axis of the light transport (N x N per pixel). More rays
     /// render edges closer to a real pixel's integral: a board's corners are 0.008 px off
     /// with 4, 0.004 px with 8 (the calibration's end-to-end test), at about twice the time.
@@ -110,116 +94,28 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let rendering = Rendering {
-        system: System::bench_with_camera(args.camera.0, args.camera.1),
-        seed: args.seed,
-        supersampling: args.supersampling,
-    };
-    let progress = Progress::stderr();
-    if args.scene == CHECKERBOARD {
-        return run_board(&args, &rendering, &progress);
+    let simulation = SimulationRequest {
+        scene: args.scene,
+        plan: args.plan,
+        preset: args.preset,
+        rendering: Rendering {
+            system: args.bench.system(),
+            seed: args.bench.seed,
+            supersampling: args.supersampling,
+        },
+        images: args.images,
+        board: args.board,
+        board_pose: args.board_pose,
+        board_poses: args.board_poses,
     }
-    let board_options = [
-        ("--board", args.board.is_some()),
-        ("--board-pose", args.board_pose.is_some()),
-        ("--board-poses", args.board_poses.is_some()),
-    ];
-    if let Some((option, _)) = board_options.iter().find(|(_, given)| *given) {
-        return Err(Error::Usage(format!(
-            "{option} is for --scene {CHECKERBOARD}, not --scene {}",
-            args.scene
-        )));
-    }
-    let plan = plan_of(&args, None)?;
-    let scene = Scene::by_name(&args.scene)?;
-    let staged = args.output.stage()?;
-    let capture = folder::write_scene(
-        staged.path(),
-        &scene,
-        &plan,
-        &rendering,
-        args.images,
-        &progress,
-    )?;
-    let out = staged.commit()?;
-    eprintln!(
-        "simulated {} ({}x{}, {} frames, seed {}) -> {}",
-        args.scene,
-        capture.width(),
-        capture.height(),
-        capture.frame_count(),
-        args.seed,
-        out.display()
-    );
-    Ok(())
-}
-
-/// The plan of `--plan` (as it is), or of `--preset` (or `default`) stating the simulated
-/// camera's sensor, else an error.
-fn plan_of(args: &Args, default: Option<Preset>) -> Result<MethodPlan> {
-    match (&args.plan, args.preset.or(default)) {
-        (Some(path), _) => fsm_io::plan_file::read_method_plan(path),
-        (None, Some(preset)) => Ok(MethodPlan::Fsm(folder::preset_plan(preset))),
-        (None, None) => Err(Error::Usage(format!(
-            "--scene {}: give the plan with --plan FILE or --preset NAME",
-            args.scene
-        ))),
-    }
-}
-
-/// `--scene checkerboard`: one pose folder (`--board-pose`) or `--board-poses` of them.
-fn run_board(args: &Args, rendering: &Rendering, progress: &Progress) -> Result<()> {
-    let board = match &args.board {
-        Some(path) => PrintedBoard::new(Checkerboard::read(path)?),
-        None => PrintedBoard::bench(),
-    };
-    // The board's scans are decoded for calibration, which takes FSM plans.
-    let plan = plan_of(args, Some(BOARD_PRESET))?
-        .fsm()
-        .map_err(|source| Error::PlanFile {
-            path: args.plan.clone().unwrap_or_default(),
-            source,
-        })?;
-    let poses = match (args.board_pose, args.board_poses) {
-        (Some(p), _) => BoardPoseFolder::one(p),
-        (None, Some(n)) => BoardPoseFolder::spread(n as usize),
-        (None, None) => {
-            return Err(Error::Usage(format!(
-                "--scene {CHECKERBOARD}: give the board's pose with --board-pose \
-                 YAW,PITCH,ROLL,Z, or --board-poses N for N pose folders"
-            )))
-        }
-    };
+    .resolve()?;
     let staged = args.output.stage()?;
     let t0 = std::time::Instant::now();
     let done = |pose: &BoardPoseFolder, seed| {
         eprintln!("{pose}, seed {seed} ({:.1} s)", t0.elapsed().as_secs_f64())
     };
-    folder::write_board_poses(
-        staged.path(),
-        &plan,
-        rendering,
-        &board,
-        &poses,
-        progress,
-        done,
-    )?;
+    let simulated = simulation.write(staged.path(), &Progress::stderr(), done)?;
     let out = staged.commit()?;
-    let ((w, h), grid) = (args.camera, &board.grid);
-    eprintln!(
-        "simulated {CHECKERBOARD} {}x{} board at {} pose{} ({w}x{h}, {} frames each) -> {}",
-        grid.inner_columns,
-        grid.inner_rows,
-        poses.len(),
-        if poses.len() == 1 { "" } else { "s" },
-        plan.sequence_len(),
-        out.display()
-    );
-    if poses.len() > 1 {
-        let d = out.display();
-        eprintln!(
-            "calibrate with: fsm calibrate target --board {d}/board.toml --plan {d}/pose-01/plan.toml --poses {d}/pose-* --bit-depth 12 --out calibration.toml"
-        );
-    }
+    eprintln!("{}", simulated.message(&out));
     Ok(())
 }

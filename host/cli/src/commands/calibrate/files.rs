@@ -1,12 +1,12 @@
 //! `fsm calibrate import|export`: OpenCV FileStorage calibrations of other tools.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use fsm_geometry::opencv::{self, ImportOptions, LengthUnit, Syntax, Tool};
 use fsm_geometry::Calibration;
-use fsm_io::{Error, Result};
+use fsm_io::Result;
 
-use crate::commands::{named, size};
+use crate::commands::{named, size, OutFile};
 
 const IMPORT_HELP: &str = "\
 The file is YAML or XML, recognised from its text. All three tools calibrate with OpenCV's
@@ -35,25 +35,31 @@ Examples:
   fsm calibrate export --calibration cal.toml --format slstudio --out calibration.xml
   fsm calibrate export --calibration cal.toml --format scan3d-capture --out calibration.yml";
 
-/// Read another tool's OpenCV FileStorage calibration and write our calibration file.
+/// The other tool's file (`fsm calibrate import`, `export`): its key set and its unit.
 #[derive(clap::Args, Debug)]
-#[command(after_help = IMPORT_HELP)]
-pub struct ImportArgs {
-    /// Which tool wrote the file (its key set): slstudio (Kc kc Kp kp Rp Tp, XML;
+struct ToolFile {
+    /// The tool whose file it is (its key set): slstudio (Kc kc Kp kp Rp Tp, XML;
     /// X_p = Rp·X_c + Tp, mm), scan3d-capture (Moreno & Taubin: cam_K cam_kc proj_K proj_kc R T,
     /// YAML; mm), procam (kamino410's procam-calibration: cam_int cam_dist proj_int proj_dist
     /// roration translation, XML; in the unit of its chessboard squares).
     #[arg(long, value_parser = named(Tool::ALL.map(|t| (t, t.name()))))]
     format: Tool,
+    /// Unit of the file's translation.
+    #[arg(long, default_value = "mm", value_parser = named(LengthUnit::ALL.map(|u| (u, u.name()))))]
+    unit: LengthUnit,
+}
+
+/// Read another tool's OpenCV FileStorage calibration and write our calibration file.
+#[derive(clap::Args, Debug)]
+#[command(after_help = IMPORT_HELP)]
+pub struct ImportArgs {
+    #[command(flatten)]
+    tool: ToolFile,
     /// The tool's calibration file.
     #[arg(long = "in", value_name = "FILE")]
     input: PathBuf,
-    /// Our calibration file to write (TOML).
-    #[arg(long, value_name = "FILE")]
-    out: PathBuf,
-    /// Replace the output file if it exists.
-    #[arg(long)]
-    force: bool,
+    #[command(flatten)]
+    output: OutFile,
     /// Camera image size, pixels (required unless the file has it: SLStudio's
     /// frameWidth/frameHeight, procam's img_shape).
     #[arg(long, value_name = "WxH", value_parser = size::<1>)]
@@ -68,9 +74,6 @@ pub struct ImportArgs {
     /// Farthest depth of the measurement volume, mm.
     #[arg(long, value_name = "MM")]
     far_mm: Option<f64>,
-    /// Unit of the file's translation.
-    #[arg(long, default_value = "mm", value_parser = named(LengthUnit::ALL.map(|u| (u, u.name()))))]
-    unit: LengthUnit,
 }
 
 /// Write our calibration file as another tool's OpenCV FileStorage file.
@@ -80,49 +83,32 @@ pub struct ExportArgs {
     /// Our calibration file.
     #[arg(long, value_name = "FILE")]
     calibration: PathBuf,
-    /// Which tool's key set to write.
-    #[arg(long, value_parser = named(Tool::ALL.map(|t| (t, t.name()))))]
-    format: Tool,
-    /// The file to write (.yml, .yaml or .xml).
-    #[arg(long, value_name = "FILE")]
-    out: PathBuf,
-    /// Replace the output file if it exists.
-    #[arg(long)]
-    force: bool,
-    /// Unit of the written translation.
-    #[arg(long, default_value = "mm", value_parser = named(LengthUnit::ALL.map(|u| (u, u.name()))))]
-    unit: LengthUnit,
-}
-
-/// Refuses to write `out` over `input`, whatever --force says: `--out OUT is {why}`.
-fn refuse_same_file(input: &Path, out: &Path, why: &str) -> Result<()> {
-    match (input.canonicalize(), out.canonicalize()) {
-        (Ok(a), Ok(b)) if a == b => Err(Error::Usage(format!("--out {} is {why}", out.display()))),
-        _ => Ok(()),
-    }
+    #[command(flatten)]
+    tool: ToolFile,
+    #[command(flatten)]
+    output: OutFile,
 }
 
 /// Runs `fsm calibrate import`.
 pub fn import(args: ImportArgs) -> Result<()> {
     let why = "the input file: write our calibration to another file";
-    refuse_same_file(&args.input, &args.out, why)?;
-    fsm_io::outputs::check_file_target(&args.out, args.force)?;
+    let out = args.output.check_not(&args.input, why)?;
     let options = ImportOptions {
         camera_size: args.camera_size,
         projector_size: args.projector_size,
         near_mm: args.near_mm,
         far_mm: args.far_mm,
-        unit: args.unit,
+        unit: args.tool.unit,
     };
-    let imported = opencv::read(&args.input, args.format, &options)?;
-    imported.calibration.write(&args.out)?;
+    let imported = opencv::read(&args.input, args.tool.format, &options)?;
+    imported.calibration.write(out)?;
     for note in &imported.notes {
         eprintln!("{note}");
     }
     eprintln!(
         "wrote {}: {} calibration from {}; {}",
-        args.out.display(),
-        args.format,
+        out.display(),
+        args.tool.format,
         args.input.display(),
         imported.calibration.summary()
     );
@@ -132,19 +118,18 @@ pub fn import(args: ImportArgs) -> Result<()> {
 /// Runs `fsm calibrate export`.
 pub fn export(args: ExportArgs) -> Result<()> {
     let why = "the calibration being exported: write to another file";
-    refuse_same_file(&args.calibration, &args.out, why)?;
-    fsm_io::outputs::check_file_target(&args.out, args.force)?;
+    let out = args.output.check_not(&args.calibration, why)?;
     let calibration = Calibration::read(&args.calibration)?;
-    let tool = args.format;
-    opencv::write(&calibration, tool, &args.out, args.unit)?;
-    if tool == Tool::SlStudio && Syntax::of_path(&args.out) == Some(Syntax::Yaml) {
+    let (tool, unit) = (args.tool.format, args.tool.unit);
+    opencv::write(&calibration, tool, out, unit)?;
+    if tool == Tool::SlStudio && Syntax::of_path(out) == Some(Syntax::Yaml) {
         eprintln!("note: SLStudio loads only .xml calibration files");
     }
     eprintln!(
         "wrote {}: {} calibration (translation in {}) from {}",
-        args.out.display(),
+        out.display(),
         tool,
-        args.unit.name(),
+        unit.name(),
         args.calibration.display()
     );
     Ok(())

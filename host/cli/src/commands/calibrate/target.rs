@@ -9,10 +9,10 @@ use fsm_calibrate::pose_folder::observe_poses;
 use fsm_calibrate::report::write_residual_pictures;
 use fsm_calibrate::{calibrate, CalibrationSettings};
 use fsm_geometry::MeasurementVolume;
-use fsm_io::outputs::write_file;
+use fsm_io::outputs::{check_file_target, write_file};
 use fsm_io::{Error, Result};
 
-use crate::commands::{BitDepth, DecodeArgs};
+use crate::commands::{BitDepth, DecodeArgs, OutFile};
 
 /// The layout of the pose folders, the method and the outputs (shown after the options).
 const TARGET_HELP: &str = "\
@@ -51,6 +51,7 @@ Examples:
 /// Arguments of `fsm calibrate target`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = TARGET_HELP)]
+#[command(mut_arg("force", |a| a.help("Replace the --out and --report files if they exist")))]
 pub struct Args {
     /// Target definition file (calibration/targets/*.toml).
     #[arg(long, value_name = "FILE")]
@@ -61,12 +62,8 @@ pub struct Args {
     /// One folder per pose (at least 3): a captured stack, or column.tiff + white.png.
     #[arg(long, value_name = "DIR", num_args = 1.., required = true)]
     poses: Vec<PathBuf>,
-    /// Calibration file to write.
-    #[arg(long, value_name = "FILE")]
-    out: PathBuf,
-    /// Replace the --out and --report files if they exist.
-    #[arg(long)]
-    force: bool,
+    #[command(flatten)]
+    output: OutFile,
     /// JSON report to write.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -138,8 +135,9 @@ impl SettingsArgs {
 
 /// Runs `fsm calibrate target`.
 pub fn run(args: Args) -> Result<()> {
-    for path in std::iter::once(&args.out).chain(&args.report) {
-        fsm_io::outputs::check_file_target(path, args.force)?;
+    let out = args.output.check()?;
+    if let Some(path) = &args.report {
+        check_file_target(path, args.output.force)?;
     }
     let board = Checkerboard::read(&args.board)?;
     let plan = fsm_io::plan_file::read_plan(&args.plan)?;
@@ -165,8 +163,8 @@ pub fn run(args: Args) -> Result<()> {
         .map_err(|e| Error::Usage(format!("calibration failed: {e}")))?;
 
     say!("{}", report.table());
-    write_file(&args.out, calibration.to_toml().as_bytes())?;
-    eprintln!("wrote {}", args.out.display());
+    write_file(out, calibration.to_toml().as_bytes())?;
+    eprintln!("wrote {}", out.display());
     if let Some(path) = &args.report {
         write_file(path, report.to_json().as_bytes())?;
         eprintln!("wrote {}", path.display());
