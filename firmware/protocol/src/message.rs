@@ -272,9 +272,17 @@ impl fmt::Display for DeviceState {
 }
 
 /// One line per field, as `fsm camera info` prints them: `protocol version   1`, …, `loaded plan
-/// 0123456789abcdef` (or `none`); no newline at the end.
+/// 0123456789abcdef` (or `none`); no newline at the end. The alternate form (`{:#}`, `fsm
+/// upload`'s) is one line: `camera protocol 1, up to 2048 pixels per row, 8 candidates per pixel`.
 impl fmt::Display for DeviceInfo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if f.alternate() {
+            return write!(
+                f,
+                "camera protocol {}, up to {} pixels per row, {} candidates per pixel",
+                self.protocol_version, self.max_width, self.candidate_capacity
+            );
+        }
         writeln!(f, "protocol version   {}", self.protocol_version)?;
         writeln!(f, "max pixels per row {}", self.max_width)?;
         writeln!(f, "max row samples    {}", self.max_row_samples)?;

@@ -412,7 +412,8 @@ fn documented_tags() {
     }
 }
 
-/// `fsm camera info` prints a camera's limits as `DeviceInfo`'s `Display`: a line per field.
+/// `fsm camera info` prints a camera's limits as `DeviceInfo`'s `Display`, a line per field;
+/// `fsm upload` its alternate form, one line.
 #[test]
 fn device_info_prints_a_line_per_field() {
     let mut info = DeviceInfo {
@@ -434,4 +435,8 @@ fn device_info_prints_a_line_per_field() {
     );
     info.plan_fingerprint = None;
     assert!(info.to_string().ends_with("loaded plan        none"));
+    assert_eq!(
+        format!("{info:#}"),
+        "camera protocol 1, up to 2048 pixels per row, 8 candidates per pixel"
+    );
 }

@@ -28,13 +28,10 @@ use clap::{Parser, Subcommand};
 
 /// Structured-light scanning through interreflections with the Frequency Shift Method.
 ///
-/// A scan is described by a plan file (`fsm plan`). The projector shows the plan's pattern
-/// images (`fsm patterns`), the camera captures one image per pattern (or dumps raw rows),
-/// and `fsm decode` finds, for every camera pixel, every projector column that lights it —
-/// directly or through reflections — with the candidate amplitudes. `fsm inspect` plots what
-/// the decoder sees at a pixel or along a row. `fsm scan` turns a capture into a surface
-/// (points.ply); `fsm simulate` and `fsm demo` do it on simulated scenes, no camera needed.
-/// `fsm upload` and `fsm camera` talk to a camera that decodes on board.
+/// A scan follows a plan file (`fsm plan`): the projector shows its patterns (`fsm patterns`),
+/// the camera captures one image per pattern (or dumps raw rows), `fsm decode` finds every
+/// projector column that lights each camera pixel, directly or through reflections, and
+/// `fsm scan` turns the capture into a surface. `fsm simulate` and `fsm demo` need no camera.
 #[derive(Parser)]
 #[command(name = "fsm", version, propagate_version = true, max_term_width = 100)]
 struct Cli {
@@ -53,8 +50,12 @@ enum Command {
     Simulate(commands::simulate::Args),
     Demo(commands::demo::Args),
     Upload(commands::camera::UploadArgs),
-    Camera(commands::camera::CameraArgs),
-    Calibrate(commands::calibrate::Args),
+    /// Talk to a camera: its limits, or a scan whose rows it decodes.
+    #[command(subcommand)]
+    Camera(commands::camera::CameraCommand),
+    /// Calibration of the camera–projector pair.
+    #[command(subcommand)]
+    Calibrate(commands::calibrate::Command),
 }
 
 fn main() -> ExitCode {

@@ -27,7 +27,7 @@ pub struct UploadArgs {
 
 /// The camera and how long to wait for it.
 #[derive(clap::Args, Debug)]
-struct DeviceArgs {
+pub struct DeviceArgs {
     /// The camera: tcp://HOST:PORT or a serial port path (PATH@BAUD).
     #[arg(long, value_name = "ADDR")]
     device: String,
@@ -46,15 +46,9 @@ impl DeviceArgs {
     }
 }
 
-/// Talk to a camera: its limits, or a scan whose rows it decodes.
-#[derive(clap::Args, Debug)]
-pub struct CameraArgs {
-    #[command(subcommand)]
-    command: CameraCommand,
-}
-
+/// `fsm camera`'s subcommands.
 #[derive(clap::Subcommand, Debug)]
-enum CameraCommand {
+pub enum CameraCommand {
     /// Print the camera's protocol version, limits and loaded plan.
     Info {
         #[command(flatten)]
@@ -64,11 +58,8 @@ enum CameraCommand {
     /// sensor) and write what it sends back — its candidate file, the same bytes
     /// `fsm decode` writes, or raw rows with --raw.
     Scan {
-        /// Scan-plan file.
-        #[arg(long, value_name = "FILE")]
-        plan: PathBuf,
         #[command(flatten)]
-        link: DeviceArgs,
+        to: UploadArgs,
         /// Row dump whose rows are sent.
         #[arg(long, value_name = "FILE")]
         dump: PathBuf,
@@ -82,23 +73,16 @@ enum CameraCommand {
 }
 
 pub fn upload(args: UploadArgs) -> Result<()> {
-    let plan = fsm_io::plan_file::read_plan(&args.plan)?;
-    let link = &args.link;
+    let (plan, link) = (fsm_io::plan_file::read_plan(&args.plan)?, &args.link);
     let (fingerprint, info) =
         client::upload(&link.device, &plan, link.timeout()).map_err(link.error())?;
-    eprintln!(
-        "{}: plan {} accepted (fingerprint {fingerprint:016x}); camera protocol {}, up to {} pixels per row, {} candidates per pixel",
-        link.device,
-        args.plan.display(),
-        info.protocol_version,
-        info.max_width,
-        info.candidate_capacity
-    );
+    let (device, path) = (&link.device, args.plan.display());
+    eprintln!("{device}: plan {path} accepted (fingerprint {fingerprint:016x}); {info:#}");
     Ok(())
 }
 
-pub fn camera(args: CameraArgs) -> Result<()> {
-    match args.command {
+pub fn camera(command: CameraCommand) -> Result<()> {
+    match command {
         CameraCommand::Info { link } => {
             let info = Client::connect(&link.device, link.timeout())
                 .and_then(|mut c| c.hello())
@@ -106,14 +90,8 @@ pub fn camera(args: CameraArgs) -> Result<()> {
             sayln!("{info}");
             Ok(())
         }
-        CameraCommand::Scan {
-            plan,
-            link,
-            dump,
-            out,
-            raw,
-        } => {
-            let scan_plan = fsm_io::plan_file::read_plan(&plan)?;
+        CameraCommand::Scan { to, dump, out, raw } => {
+            let (scan_plan, link) = (fsm_io::plan_file::read_plan(&to.plan)?, &to.link);
             let output = if raw {
                 RowOutput::Raw
             } else {

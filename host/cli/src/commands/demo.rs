@@ -4,27 +4,17 @@
 use fsm_io::Result;
 use fsm_sim::comparison;
 
-/// Run the paper's comparison on simulated scenes: FSM and the methods it is compared with
-/// (phase shift, Micro Phase Shifting, Code Ensemble, line scanning), with and without a
-/// mirror's interreflection, and under glossy interreflection.
+/// Run the paper's comparison on simulated scenes: FSM against phase shift, Micro Phase
+/// Shifting, Code Ensemble and line scanning, under mirror and glossy interreflection.
 ///
-/// The bench scanner looks at a diffuse plane beside a planar mirror (`plane_mirror`): the
-/// plane receives the projector's light directly and through the mirror. The same scene with
-/// the mirror blackened (`plane_mirror_covered`) is the reference. Each is scanned with BFSM
-/// (768 patterns), EFSM (cB 64, two groups: 152 patterns), phase shift + Gray code (6 + 7
-/// patterns), Micro Phase Shifting (17), Code Ensemble (80), line scanning (768) and the EFSM
-/// patterns decoded by the local-maximum search (`EFSM-fast`, the camera's fast decoder),
-/// each through the same decode → triangulate → select path, and compared with the
-/// simulator's ground truth and with each other (paper Fig. 9: Ed, EnoI, EwiI; Fig. 13: BFSM
-/// against line scanning with as many patterns). BFSM and EFSM are also decoded by CLEAN
-/// (`-CLEAN`, the DFT search the cosine search replaced). Every method also scans
-/// `vgroove_glossy` (two rough-metal facets whose light reflected facet to facet outshines the
-/// direct light): how often the direct column is among the candidates and the selected point
-/// is right.
+/// Every method (BFSM and EFSM also decoded by CLEAN, and EFSM by the camera's local-maximum
+/// search as EFSM-fast) scans, on the bench scanner, plane_mirror (a plane lit directly and
+/// through a mirror), plane_mirror_covered (the mirror blackened: the reference),
+/// sphere_mirror and vgroove_glossy (rough metal); each scan is compared with the ground truth
+/// and with the others (paper Figs. 9 and 13). The plans and figures: docs/comparison.md.
 ///
 /// Writes into the output folder:
-///   report.html, report.md     the figures per method, with pictures (the same report,
-///                              for a browser and for a Markdown viewer)
+///   report.html, report.md     the figures per method with pictures, for a browser and Markdown
 ///   report.json                the same figures, for programs
 ///   <method>/<scene>/          each scan's outputs (as `fsm scan` writes them)
 ///   <method>/column_error.png  |decoded − true column| with the mirror (0 to 1 column)

@@ -70,9 +70,8 @@ pub struct CaptureArgs {
     #[command(flatten)]
     pub bit_depth: BitDepth,
     /// Decode a dump whose records fail their check (CRC, row index, a repeated row) or that
-    /// ends early: the good rows are decoded, the bad or missing ones get no point (no_data)
-    /// and are listed on stderr (and in summary.json). By default such a dump is refused
-    /// with the error that names the record and its row.
+    /// ends early: the bad or missing rows get no point (no_data) and are listed on stderr and
+    /// in summary.json. By default such a dump is refused, the error naming the record and row.
     #[arg(long, requires = "dump")]
     pub skip_bad_rows: bool,
 }
@@ -221,28 +220,35 @@ where
 
 /// `WxH`, both at least `MIN`.
 pub fn size<const MIN: u32>(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once('x')
-        .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 1280x1024"))?;
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .ok()
-            .filter(|&v| v >= MIN)
-            .ok_or_else(|| format!("`{s}`: `{v}` is not a size of {MIN} or more pixels"))
-    };
-    Ok((parse(w)?, parse(h)?))
+    pair(
+        s,
+        'x',
+        "WxH, e.g. 1280x1024",
+        &format!("a size of {MIN} or more pixels"),
+        MIN,
+    )
 }
 
 /// `X,Y` pixel coordinates.
 pub fn parse_pixel(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (x, y) = s
-        .split_once(',')
-        .ok_or_else(|| format!("`{s}`: expected X,Y (e.g. 640,480)"))?;
-    let parse = |v: &str, name: &str| {
-        v.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("`{s}`: {name} = `{v}` is not a pixel coordinate"))
+    pair(s, ',', "X,Y, e.g. 640,480", "a pixel coordinate", 0)
+}
+
+/// Two whole numbers of at least `min` separated by `sep`; the errors say `expected {form}`
+/// or that a number is not `{what}`.
+fn pair(
+    s: &str,
+    sep: char,
+    form: &str,
+    what: &str,
+    min: u32,
+) -> std::result::Result<(u32, u32), String> {
+    let (a, b) = s
+        .split_once(sep)
+        .ok_or_else(|| format!("`{s}`: expected {form}"))?;
+    let parse = |v: &str| {
+        (v.trim().parse::<u32>().ok().filter(|&v| v >= min))
+            .ok_or_else(|| format!("`{s}`: `{v}` is not {what}"))
     };
-    Ok((parse(x, "X")?, parse(y, "Y")?))
+    Ok((parse(a)?, parse(b)?))
 }

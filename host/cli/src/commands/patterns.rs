@@ -13,7 +13,7 @@ use fsm_io::Result;
 /// Images are numbered 0000.png, 0001.png, … (dark and white references first, then each
 /// group's fringes and masks; a baseline's frames in its own order), with manifest.json saying
 /// what each image is. Every image is one projector row repeated down the height: patterns
-/// vary along columns only. Takes a plan of any method (`fsm plan --method`).
+/// vary along columns only.
 ///
 /// Example: fsm patterns --plan plan.toml --height 768 --out patterns/
 #[derive(clap::Args, Debug)]

@@ -20,11 +20,9 @@ use super::named;
 ///   fsm plan --check plan.toml --wire plan.bin
 ///
 /// --method derives every dependent field from the projector's width: BFSM's band (one fringe
-/// per column), EFSM's band and DFT size from the block width, phase shift's Gray-code bits,
-/// Micro Phase Shifting's periods (15 over 14-18 columns), line scanning's frames, Code
-/// Ensemble's codeword width (10-bit codes; wider projectors share codewords). Overrides
-/// use the file's dotted field names (see the README, "Plan files"); e.g.
-/// `--set band.count=512`, `--set method.Efsm.block_width=32`, `--set references.white=false`,
+/// per column), EFSM's band and DFT size from the block width, the other methods' as
+/// docs/comparison.md says. Overrides use the file's dotted field names (README, "Plan files"),
+/// e.g. `--set band.count=512`, `--set method.Efsm.block_width=32`, `--set references.white=false`,
 /// `--set line_scan.noise_factor=8`.
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]

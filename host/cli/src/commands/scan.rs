@@ -13,17 +13,10 @@ use super::{CaptureArgs, DecodeArgs, OutDir, PlanFile};
 
 /// Scan a surface: decode the capture, triangulate every candidate, select the direct one.
 ///
-/// The capture is an image stack (--images) or a row dump (--dump), decoded here; or the
-/// candidates are already decoded (--candidates: `fsm decode`'s candidates.fsmc, or the file
-/// a camera streamed with `fsm camera scan`), and the scan starts from them.
-///
 /// Every candidate column of a pixel (direct light and reflections) is triangulated with the
-/// calibration; candidates outside its measurement volume are dropped; the direct candidate
-/// of every pixel is chosen by semi-global selection (the surface is continuous, the
-/// fictitious surfaces made by reflections are not: SPEC §4); a chosen point the projector
-/// cannot light directly (behind or hiding another surface on its projector ray, on a surface
-/// the projector sees from behind, outside its image) gets no point. summary.json counts the
-/// pixels without a point by reason.
+/// calibration, those outside its measurement volume dropped, and the direct one chosen by
+/// semi-global selection (SPEC §4); a chosen point the projector cannot light directly gets no
+/// point (how: docs/scan.md). summary.json counts the pixels without a point by reason.
 ///
 /// Writes into the output folder:
 ///   points.ply                 binary PLY: x y z (mm, camera frame), intensity, quality, pixel x y
@@ -50,8 +43,8 @@ pub struct Args {
     calibration: PathBuf,
     #[command(flatten)]
     capture: CaptureArgs,
-    /// Candidate file of the capture (`fsm decode`'s candidates.fsmc, or a camera's), decoded
-    /// with this plan: the scan starts from its candidates. FSM plans need --bit-depth with it
+    /// Candidate file of the capture (`fsm decode`'s candidates.fsmc, or `fsm camera scan`'s),
+    /// decoded with this plan: the scan starts from its candidates. FSM plans need --bit-depth
     /// (the file does not record the sensor's, and a point's quality is measured in it).
     #[arg(long, value_name = "FILE", group = "CaptureSource")]
     candidates: Option<PathBuf>,
@@ -83,21 +76,19 @@ pub struct SelectionArgs {
     /// (default: 1 per pixel footprint).
     #[arg(long, value_name = "PER_MM")]
     beta_per_mm: Option<f32>,
-    /// Keep the points of pixels whose candidates may be mixtures of two lights: EFSM lights
-    /// unresolved modulo the block width (flagged aliased), or two touching lights the
-    /// decoder could not split (flagged unresolved); their columns are off by up to a column.
-    /// By default they get no point.
+    /// Keep the points of pixels whose candidates may mix two lights, off by up to a column:
+    /// EFSM lights unresolved modulo the block width (flagged aliased), or touching lights the
+    /// decoder could not split (flagged unresolved); by default they get no point.
     #[arg(long)]
     keep_aliased: bool,
     /// Keep the chosen points the projector cannot light directly (reflections' fictitious
     /// surfaces, virtual images); by default they get no point.
     #[arg(long)]
     keep_fictitious: bool,
-    /// Keep the points of pixels that straddle a depth edge (a neighbour chose a point on
-    /// another surface, and the pixel holds that surface's light too: its point may be on
-    /// either side) or a crease (its point lies on none of its neighbours' surfaces), and the
-    /// points no neighbourhood confirms (specks, strips 1-2 pixels wide); by default they get
-    /// no point.
+    /// Keep the points of pixels at a depth edge (a neighbour chose a point on another surface
+    /// whose light the pixel holds too: its point may be on either side) or a crease (its point
+    /// lies on none of its neighbours' surfaces), and the points no neighbourhood confirms
+    /// (specks, strips 1-2 pixels wide); by default they get no point.
     #[arg(long)]
     keep_edges: bool,
     /// Give no point to a pixel whose light is weaker than this many times the noise RMS of

@@ -14,10 +14,9 @@ use fsm_sim::folder::{
 /// Simulate a scan: the camera's captures of a scene under a plan's patterns.
 ///
 /// The bench scanner (SPEC §5; baseline 200 mm, standoff 500 mm, 768-column projector with
-/// a 0.7-column defocus blur, 12-bit camera) looks at a preset scene; light reaches the
-/// camera directly and through mirrors and diffuse and glossy interreflection, and the sensor
-/// adds shot and read noise. Scenes: plane, plane_mirror, plane_mirror_covered, vgroove,
-/// sphere_mirror, vgroove_glossy (rough metal), and checkerboard (a calibration target, below).
+/// a 0.7-column defocus blur, 12-bit camera) looks at a preset scene (vgroove_glossy is rough
+/// metal) or a calibration target; light reaches the camera directly and through mirrors and
+/// diffuse and glossy interreflection, and the sensor adds shot and read noise.
 ///
 /// Writes into the output folder:
 ///   plan.toml            the plan the patterns follow (a preset states the simulated sensor)
@@ -27,21 +26,16 @@ use fsm_sim::folder::{
 ///   truth/column.tiff    ground-truth direct column (SPEC §7; NaN where not lit directly)
 ///   truth/interreflection.png  pixels whose indirect light exceeds 20% of the direct
 ///
-/// Checkerboard: --scene checkerboard renders a printed board (--board FILE, a target
-/// definition; default the bench's 9 x 6 inner corners of 20 mm,
-/// calibration/targets/checkerboard-9x6-20mm.toml) alone before a black background, at
-/// --board-pose YAW,PITCH,ROLL,Z (or YAW,PITCH,ROLL,X,Y,Z): the board faces the camera with
-/// its rows along the image rows, turned by ROLL about its normal, tilted by PITCH about the
-/// camera's x axis and YAW about its y axis (degrees), the centre of its corner grid at
-/// (X, Y, Z) mm in the camera frame (X = Y = 0 by default). The plan defaults to
-/// paper-efsm-1 (76 patterns). The output folder is then a pose folder of
-/// `fsm calibrate target`: the frames are 16-bit PNGs at its top (0000.png…, --images is
-/// implied), beside plan.toml, calibration.toml, board.toml (the target definition) and
-/// truth/ (as above, plus truth/corners.json: every inner corner's true camera pixel, pixel
-/// centres at integers as SPEC §1, its camera-frame point and projector column, row-major).
-/// --board-poses N (1-9) instead writes N pose folders pose-01 … pose-N under the output
-/// folder, each as above, at a spread of well-conditioned poses (all tilted 15-30 degrees,
-/// 540-580 mm; pose i's noise seed is --seed + i − 1), and board.toml beside them.
+/// --scene checkerboard renders a printed board (--board) alone before a black background at
+/// --board-pose YAW,PITCH,ROLL,Z or YAW,PITCH,ROLL,X,Y,Z: facing the camera, its rows along
+/// the image rows, turned by ROLL about its normal, tilted by PITCH about the camera's x axis
+/// and YAW about its y axis (degrees), its corner grid's centre at (X, Y, Z) mm in the camera
+/// frame (X = Y = 0 by default). The output folder is then a pose folder of `fsm calibrate
+/// target`: the frames as 16-bit PNGs at its top (0000.png…; --images is implied), plan.toml,
+/// calibration.toml, board.toml (the target definition) and truth/ as above plus
+/// truth/corners.json (every inner corner's true camera pixel, pixel centres at integers as
+/// SPEC §1, its camera-frame point and projector column, row-major). --board-poses N writes N
+/// such folders pose-01 … pose-N instead, board.toml beside them.
 ///
 /// Examples:
 ///   fsm simulate --scene plane_mirror --preset paper-bfsm --out sim/
@@ -54,14 +48,14 @@ use fsm_sim::folder::{
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Scene: a preset, or checkerboard (described above).
+    /// Scene: a preset, or checkerboard (a calibration target, described above).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(scene_names()))]
     scene: String,
     /// Plan file, of any method (`fsm plan --method`); a calibration board takes FSM plans.
     #[arg(long, value_name = "FILE", conflicts_with = "preset")]
     plan: Option<PathBuf>,
-    /// A preset plan instead of a file: paper-bfsm, paper-efsm-1 or paper-efsm-2 (one of
-    /// the two is required, except for --scene checkerboard: default paper-efsm-1).
+    /// A preset plan instead of a file (one of the two is required, except for --scene
+    /// checkerboard: default paper-efsm-1, 76 patterns).
     #[arg(long, value_parser = super::named(Preset::ALL))]
     preset: Option<Preset>,
     #[command(flatten)]
@@ -76,7 +70,8 @@ pub struct Args {
     /// Write a 16-bit PNG per frame under images/ instead of a row dump.
     #[arg(long)]
     images: bool,
-    /// Checkerboard: the target definition file (default the bench's 9 x 6, 20 mm).
+    /// Checkerboard: the target definition file (default the bench's 9 x 6 inner corners of
+    /// 20 mm, calibration/targets/checkerboard-9x6-20mm.toml).
     #[arg(long, value_name = "FILE")]
     board: Option<PathBuf>,
     /// Checkerboard: the board's pose, degrees and mm (described above).
@@ -88,7 +83,8 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     board_pose: Option<BoardPlacement>,
-    /// Checkerboard: N pose folders pose-01 … pose-N at a spread of tilted poses (1-9).
+    /// Checkerboard: N pose folders (1-9) at a spread of well-conditioned poses, all tilted
+    /// 15-30 degrees, 540-580 mm; pose i's noise seed is --seed + i − 1.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=SPREAD.len() as i64))]
     board_poses: Option<u8>,
 }

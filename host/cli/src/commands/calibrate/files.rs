@@ -9,12 +9,10 @@ use fsm_io::Result;
 use crate::commands::{named, size, OutFile};
 
 const IMPORT_HELP: &str = "\
-The file is YAML or XML, recognised from its text. All three tools calibrate with OpenCV's
-stereoCalibrate, camera first: their R, T map camera coordinates to projector coordinates
-(X_p = R·X_c + T), which is our pose as it is. T is in the unit the tool's user gave the
-checkerboard squares in (--unit, default mm). The files hold no measurement volume and not
-always the image sizes: give them as options (an option wins over a size in the file, with a
-warning). See calibration/README.md.
+The file is YAML or XML, recognised from its text. Its R, T (camera to projector, as all
+three tools have them: calibration/README.md) are taken as they are, T in --unit. The files
+hold no measurement volume and not always the image sizes: give them as options (an option
+wins over a size in the file, with a warning).
 
 Examples:
   fsm calibrate import --format slstudio --in calibration.xml --near-mm 350 --far-mm 700 \\

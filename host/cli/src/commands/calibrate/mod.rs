@@ -8,15 +8,9 @@ pub mod target;
 
 use fsm_io::Result;
 
-/// Calibration of the camera–projector pair.
-#[derive(clap::Args, Debug)]
-pub struct Args {
-    #[command(subcommand)]
-    command: Command,
-}
-
+/// `fsm calibrate`'s subcommands.
 #[derive(clap::Subcommand, Debug)]
-enum Command {
+pub enum Command {
     /// Camera and projector geometry from scans of a planar checkerboard at ≥ 3 poses.
     Target(target::Args),
     /// The projector's intensity response (gamma) from captures of uniform grey levels.
@@ -29,8 +23,8 @@ enum Command {
 }
 
 /// Runs `fsm calibrate …`.
-pub fn run(args: Args) -> Result<()> {
-    match args.command {
+pub fn run(command: Command) -> Result<()> {
+    match command {
         Command::Target(args) => target::run(args),
         Command::Response(args) => response::run(args),
         Command::Import(args) => files::import(args),

@@ -11,8 +11,8 @@ use crate::commands::BitDepth;
 
 /// How to measure, shown by `fsm calibrate response --help`.
 const LONG_HELP: &str = "\
-A projector whose light is not proportional to its code (gamma) distorts the fringes; their
-harmonics decode as ghost columns. Two steps:
+A projector whose light is not proportional to its code (gamma) distorts the fringes into
+ghost columns (how it is measured: docs/calibration.md). Two steps:
 
 1. Write the grey-level images (code 0 to full, ascending) and levels.json:
      fsm calibrate response --write-patterns levels/ --levels 17 --width 1024 --height 768
@@ -22,12 +22,9 @@ harmonics decode as ghost columns. Two steps:
 2. Estimate the response and write it:
      fsm calibrate response --images captures/ --manifest levels/levels.json \\
          --bit-depth 12 --out response.toml --calibration calibration.toml
-   Per pixel the dark capture (code 0) is subtracted and the result divided by the full
-   code's; each level's light is the interquartile mean over the pixels (pixels saturated or
-   dim in the dark or full capture are left out and counted). Prints the best-fit gamma, its
-   RMS residual and every level; writes a response file for `fsm patterns --gamma`, and with
-   --calibration stores the response in the calibration file for
-   `fsm patterns --calibration`.";
+   Prints the best-fit gamma, its RMS residual and every level (pixels saturated or dim in
+   the dark or full capture are left out and counted); writes a response file for
+   `fsm patterns --gamma`, and with --calibration stores it for `fsm patterns --calibration`.";
 
 /// Arguments of `fsm calibrate response` (see [`LONG_HELP`]).
 #[derive(clap::Args, Debug)]
@@ -54,8 +51,7 @@ pub struct Args {
     /// Write TIFF instead of PNG (--write-patterns).
     #[arg(long)]
     tiff: bool,
-    /// Replace the --write-patterns folder if it exists and is not empty, or the --out file if
-    /// it exists.
+    /// Replace the --write-patterns folder or the --out file if it exists.
     #[arg(long)]
     force: bool,
     /// Folder of the captures, numbered like the grey-level images (PNG or TIFF, 8- or 16-bit

@@ -1,6 +1,5 @@
-//! `fsm calibrate target`: geometric calibration from checkerboard scans (fsm-calibrate:
-//! Zhang's method for the camera, the projector as a column-only inverse camera from local
-//! homographies of the decoded columns, after Moreno & Taubin).
+//! `fsm calibrate target`: geometric calibration from checkerboard scans (fsm-calibrate;
+//! the method: docs/calibration.md).
 
 use std::path::PathBuf;
 
@@ -16,8 +15,6 @@ use crate::commands::{BitDepth, DecodeArgs, OutFile};
 
 /// The layout of the pose folders, the method and the outputs (shown after the options).
 const TARGET_HELP: &str = "\
-Calibrate the camera and the projector from scans of a planar checkerboard.
-
 Hold the board still at 3 or more poses (10-15 is better), tilted 10-45 degrees in
 different directions, filling much of the camera's view and lit by the projector, and
 scan each pose with the plan. Each --poses folder is one pose, either
@@ -29,12 +26,8 @@ scan each pose with the plan. Each --poses folder is one pose, either
                      white.tiff (the board under a full-on frame; a dark.png / dark.tif /
                      dark.tiff beside it is subtracted).
 
-The camera: Zhang's closed form, then Levenberg-Marquardt on K, distortion (k1 k2 p1 p2;
-k3 with --camera-k3) and the poses. The projector: each corner's column from a local
-projective fit of the decoded columns around it, then the projector as an inverse camera
-seen through its columns; finally everything refined together. Columns alone do not fix
-the projector's fy, cy, rows or its offset along its vertical axis: fy = fx, cy and rows
-are taken from the options (triangulation uses columns only).
+The method (Zhang's for the camera, the projector as an inverse camera seen through its
+columns; fy = fx, and cy and rows, which columns cannot fix, from the options): docs/calibration.md.
 
 Writes the calibration file (--out) and a JSON report (--report): reprojection RMS of the
 camera (px) and the projector (columns) per pose, every parameter with its standard
