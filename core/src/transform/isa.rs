@@ -3,7 +3,7 @@
 //! A host binary is built for the x86-64 baseline (SSE2) so that it runs on every x86-64 CPU;
 //! on one that also runs AVX2 or AVX-512F the decoder enters lane loops compiled for them
 //! ([`crate::decoder`]). Every path performs the same IEEE operations in every lane, so the
-//! choice changes the speed, never the bits (`examples/digest.rs` checks it on every run).
+//! choice changes the speed, never the bits (`core/digest` checks it on every run).
 //! Elsewhere (the camera's Cortex-A9) there is one portable path.
 
 /// The widest vector instructions the lane loops may use.

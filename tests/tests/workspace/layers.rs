@@ -22,8 +22,8 @@ const LAYERS: [&[&str]; 7] = [
     &["fsm-sim"],
     // The `fsm` tool.
     &["fsm-cli"],
-    // Tests only.
-    &["fsm-tests"],
+    // Tests only: the workspace's, and the decoder's digest (`core/digest`).
+    &["fsm-tests", "fsm-digest"],
 ];
 
 fn layer_of(package: &str) -> Option<usize> {

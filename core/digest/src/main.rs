@@ -1,15 +1,14 @@
 //! Prints a digest of every candidate decoded from a fixed synthetic workload.
 //!
 //! Candidates must be bit-identical in every build profile and on every machine (SPEC §6, the
-//! firmware cross-check); CI runs this in the dev and the release profile and compares:
-//! `cargo run -p fsm-core --example digest` and `cargo run -p fsm-core --release --example digest`.
-//! Each plan's row is also decoded 1, 4, 8 and 16 lanes at a time, and the example fails unless
-//! every lane count gives the same candidates, unless each pixel's strong light is among its
-//! candidates (85% of the pixels of every plan) and unless there are at least as many
-//! candidates as pixels. CI also compares the output with `core/examples/digest.expected`:
-//! a change of the decoder's output changes the digest, and that file is then updated on
-//! purpose, in the same commit, saying why
-//! (`cargo run -q -p fsm-core --example digest > core/examples/digest.expected`).
+//! firmware cross-check). `cargo test --workspace` runs this program as built for the tests and
+//! compares its output with `digest.expected` (`tests/expected.rs`); CI also runs the release
+//! build (`cargo run --release -p fsm-digest`) and compares. Each plan's row is also decoded 1,
+//! 4, 8 and 16 lanes at a time, and the program fails unless every lane count gives the same
+//! candidates, unless each pixel's strong light is among its candidates (85% of the pixels of
+//! every plan) and unless there are at least as many candidates as pixels. A change of the
+//! decoder's output changes the digest, and `digest.expected` is then updated on purpose, in
+//! the same commit, saying why (`cargo run -q -p fsm-digest > core/digest/digest.expected`).
 
 use fsm_core::{Decoder, GroupCount, PixelCandidates, Row, ScanPlan, Window};
 
