@@ -227,7 +227,7 @@ pub fn write_scan(dir: &Path, surface: &Surface, summary: &ScanSummary) -> Resul
         &codes,
         w,
         h,
-        &no_point_legend(surface),
+        &no_point_legend(&codes),
     )?;
     let json = serde_json::to_vec_pretty(summary)
         .map_err(|e| Error::Usage(format!("summary.json: {e}")))?;
@@ -251,10 +251,11 @@ const NO_POINT_COLOURS: [[u8; 3]; 12] = [
     [23, 190, 207],
 ];
 
-/// The legend of `no_point.png`: the pixels with a point, then each reason, with its count.
-fn no_point_legend(surface: &Surface) -> Vec<Category> {
+/// The legend of `no_point.png` for the pixels' `codes` ([`Surface::no_point_codes`]): the
+/// pixels with a point, then each reason, with its count.
+fn no_point_legend(codes: &[u8]) -> Vec<Category> {
     let mut counts = [0usize; 12];
-    for code in surface.no_point_codes() {
+    for &code in codes {
         counts[code as usize] += 1;
     }
     let names = std::iter::once("point").chain(NoPoint::ALL.iter().map(|r| r.name()));
