@@ -46,9 +46,19 @@ pub fn sample_noise_dn(sensor: &SensorNoise, bit_depth: u8, signal_dn: f32) -> f
     sqrt(read * read + 1.0 / 12.0 + shot)
 }
 
+/// RMS noise, per component, of a light's amplitude estimated from `samples` samples of RMS
+/// noise `sample_noise_dn`: `σ·√(2/n)`. It is the form every decoder's amplitude takes — the
+/// modulation of `n` phase steps, `2/n·|Σ I_k e^{iθ_k}|` (phase shift, Micro Phase Shifting),
+/// the mean of `n` differences `pattern − inverse` (Code Ensemble), one sample above another
+/// (`n = 1`, line scanning's peak over its surroundings) — so a point's quality, its amplitude
+/// over this at a dark pixel, means the same signal-to-noise ratio for every method.
+pub fn amplitude_noise_dn(sample_noise_dn: f32, samples: usize) -> f32 {
+    sample_noise_dn * sqrt(2.0 / samples.max(1) as f32)
+}
+
 /// RMS noise of one column of the inverse cosine transform of `span + 1` columns
 /// ([`crate::transform::cosine`]) when every fringe sample has RMS noise `sample_noise_dn`:
 /// `σ·√(2/span)`, the same in every column but the two ends (which have half the variance).
 pub fn profile_noise_dn(sample_noise_dn: f32, span: u16) -> f32 {
-    sample_noise_dn * sqrt(2.0 / span.max(1) as f32)
+    amplitude_noise_dn(sample_noise_dn, span as usize)
 }

@@ -39,6 +39,8 @@ use core::fmt;
 
 use super::{offer_light, PatternSequence, PixelDecoder};
 use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
+use crate::noise::{amplitude_noise_dn, sample_noise_dn};
+use crate::plan::SensorNoise;
 
 /// Bits of every code.
 pub const BITS: usize = 10;
@@ -243,6 +245,10 @@ pub struct CodeEnsemblePlan {
     pub agreement_columns: u16,
     /// A pixel's mean `|pattern − inverse|` must exceed this (sensor DN) to be decoded.
     pub min_contrast_dn: f32,
+    /// The camera's sensor: the noise a point's quality is measured in (only the scan reads
+    /// it; plan files written before it have the default).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub sensor: SensorNoise,
 }
 
 /// A violated Code Ensemble plan rule.
@@ -256,6 +262,8 @@ pub enum CodeEnsembleError {
     Agreement { agreement_columns: u16 },
     /// A threshold must be a finite number, not below 0.
     Threshold { value: f32 },
+    /// The sensor's noise model ([`SensorNoise::check`]).
+    Sensor { field: &'static str, value: f32 },
 }
 
 impl fmt::Display for CodeEnsembleError {
@@ -276,6 +284,9 @@ impl fmt::Display for CodeEnsembleError {
                     "min_contrast_dn = {value}: must be a finite number, not below 0"
                 )
             }
+            CodeEnsembleError::Sensor { field, value } => {
+                write!(f, "{field} = {value}: {}", SensorNoise::RULE)
+            }
         }
     }
 }
@@ -288,6 +299,7 @@ impl CodeEnsemblePlan {
             projector_columns: columns,
             agreement_columns: 1,
             min_contrast_dn: 2.0,
+            sensor: SensorNoise::default(),
         }
     }
 
@@ -312,7 +324,9 @@ impl CodeEnsemblePlan {
         if !(value.is_finite() && value >= 0.0) {
             return Err(CodeEnsembleError::Threshold { value });
         }
-        Ok(())
+        self.sensor
+            .check()
+            .map_err(|(field, value)| CodeEnsembleError::Sensor { field, value })
     }
 
     /// Frames in the sequence: 80.
@@ -352,8 +366,9 @@ impl CodeEnsemblePlan {
         (k < CODEWORDS).then_some(0.5 * (first + last) as f32)
     }
 
-    /// CRC-64/XZ of the plan's fields, little-endian after the tag `CE`: the identity row dumps
-    /// of its captures carry.
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `CE`: the identity candidate
+    /// files of its decodes carry. Not the sensor, which no candidate depends on (it only
+    /// scales the points' quality).
     pub fn fingerprint(&self) -> u64 {
         let mut bytes = [0u8; 10];
         bytes[..2].copy_from_slice(b"CE");
@@ -430,6 +445,12 @@ impl PatternSequence for CodeEnsemblePlan {
 }
 
 impl PixelDecoder for CodeEnsemblePlan {
+    /// The mean of every code's `pattern − inverse` differences.
+    fn dark_amplitude_noise_dn(&self, bit_depth: u8) -> f32 {
+        let sample = sample_noise_dn(&self.sensor, bit_depth, 0.0);
+        amplitude_noise_dn(sample, CODES.len() * BITS)
+    }
+
     /// One candidate (the agreed column, the mean `|pattern − inverse|`), or none when the
     /// pixel is dark, no two codes agree, or the agreed column is outside `range`.
     fn decode_pixel<const K: usize>(

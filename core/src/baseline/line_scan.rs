@@ -21,7 +21,7 @@ use core::fmt;
 use super::{offer_light, PatternSequence, PixelDecoder};
 use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
 use crate::math::{ln, sqrt};
-use crate::noise::sample_noise_dn;
+use crate::noise::{amplitude_noise_dn, sample_noise_dn};
 use crate::plan::SensorNoise;
 use crate::search::cosine::RIPPLE_DEPTH;
 
@@ -98,10 +98,9 @@ impl fmt::Display for LineScanError {
                 f,
                 "noise_factor = {noise_factor}: must be a positive number"
             ),
-            LineScanError::Sensor { field, value } => write!(
-                f,
-                "{field} = {value}: must be a finite number (above 0 for the full-scale charge, not below 0 for the read noise)"
-            ),
+            LineScanError::Sensor { field, value } => {
+                write!(f, "{field} = {value}: {}", SensorNoise::RULE)
+            }
         }
     }
 }
@@ -135,22 +134,9 @@ impl LineScanPlan {
                 noise_factor: self.noise_factor,
             });
         }
-        let (full, read) = (
-            self.sensor.full_scale_electrons,
-            self.sensor.read_noise_electrons,
-        );
-        if !(full.is_finite() && full > 0.0) {
-            return Err(LineScanError::Sensor {
-                field: "sensor.full_scale_electrons",
-                value: full,
-            });
-        }
-        if !(read.is_finite() && read >= 0.0) {
-            return Err(LineScanError::Sensor {
-                field: "sensor.read_noise_electrons",
-                value: read,
-            });
-        }
+        self.sensor
+            .check()
+            .map_err(|(field, value)| LineScanError::Sensor { field, value })?;
         Ok(())
     }
 
@@ -273,6 +259,11 @@ impl PatternSequence for LineScanPlan {
 }
 
 impl PixelDecoder for LineScanPlan {
+    /// A peak's height: one sample over the lowest of its surroundings.
+    fn dark_amplitude_noise_dn(&self, bit_depth: u8) -> f32 {
+        amplitude_noise_dn(sample_noise_dn(&self.sensor, bit_depth, 0.0), 1)
+    }
+
     /// Every temporal peak that stands out of its surroundings by `noise_factor` times a
     /// sample's noise (at the peak's level), its column from the detector, its amplitude the
     /// height above the surroundings (DN); strongest first, at most `K`.

@@ -22,6 +22,8 @@ use core::fmt;
 use super::{offer_light, PatternSequence, PixelDecoder};
 use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
 use crate::math::{cos64, floor, sqrt};
+use crate::noise::{amplitude_noise_dn, sample_noise_dn};
+use crate::plan::SensorNoise;
 
 /// Most frequencies a plan holds (the frames are `frequencies + 2`).
 pub const MAX_FREQUENCIES: usize = 16;
@@ -42,6 +44,10 @@ pub struct MicroPhaseShiftPlan {
     pub min_modulation_dn: f32,
     /// Largest RMS difference between the measured cosines and the best code's.
     pub max_code_residual: f32,
+    /// The camera's sensor: the noise a point's quality is measured in (only the scan reads
+    /// it; plan files written before it have the default).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub sensor: SensorNoise,
 }
 
 /// A violated Micro Phase Shifting plan rule.
@@ -57,6 +63,8 @@ pub enum MicroPhaseShiftError {
     RepeatedPeriod { index: u8 },
     /// A threshold must be a finite number, not below 0.
     Threshold { field: &'static str, value: f32 },
+    /// The sensor's noise model ([`SensorNoise::check`]).
+    Sensor { field: &'static str, value: f32 },
 }
 
 impl fmt::Display for MicroPhaseShiftError {
@@ -79,6 +87,9 @@ impl fmt::Display for MicroPhaseShiftError {
             ),
             MicroPhaseShiftError::Threshold { field, value } => {
                 write!(f, "{field} = {value}: must be a finite number, not below 0")
+            }
+            MicroPhaseShiftError::Sensor { field, value } => {
+                write!(f, "{field} = {value}: {}", SensorNoise::RULE)
             }
         }
     }
@@ -114,6 +125,7 @@ impl MicroPhaseShiftPlan {
             frequencies: n as u8,
             min_modulation_dn: 2.0,
             max_code_residual: 0.35,
+            sensor: SensorNoise::default(),
         }
     }
 
@@ -144,7 +156,9 @@ impl MicroPhaseShiftPlan {
                 return Err(MicroPhaseShiftError::Threshold { field, value });
             }
         }
-        Ok(())
+        self.sensor
+            .check()
+            .map_err(|(field, value)| MicroPhaseShiftError::Sensor { field, value })
     }
 
     /// The periods in use.
@@ -167,8 +181,9 @@ impl MicroPhaseShiftPlan {
         }
     }
 
-    /// CRC-64/XZ of the plan's fields, little-endian after the tag `MP`: the identity row dumps
-    /// of its captures carry (distinct from every FSM plan's, whose bytes never start so).
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `MP`: the identity candidate
+    /// files of its decodes carry (distinct from every FSM plan's, whose bytes never start so).
+    /// Not the sensor, which no candidate depends on (it only scales the points' quality).
     pub fn fingerprint(&self) -> u64 {
         let mut bytes = [0u8; 13 + 4 * MAX_FREQUENCIES];
         bytes[..2].copy_from_slice(b"MP");
@@ -184,7 +199,7 @@ impl MicroPhaseShiftPlan {
 
     /// The fingerprint of the frames alone ([`crate::wire::pattern_fingerprint`], tag
     /// `MP`): the columns and the fringe periods; not the decoder's
-    /// `min_modulation_dn` and `max_code_residual`.
+    /// `min_modulation_dn` and `max_code_residual`, nor the sensor.
     pub fn pattern_fingerprint(&self) -> u64 {
         let mut fields = [0u8; 3 + 4 * MAX_FREQUENCIES];
         fields[..2].copy_from_slice(&self.projector_columns.to_le_bytes());
@@ -233,6 +248,11 @@ impl PatternSequence for MicroPhaseShiftPlan {
 }
 
 impl PixelDecoder for MicroPhaseShiftPlan {
+    /// The amplitude of the first frequency's three phase steps.
+    fn dark_amplitude_noise_dn(&self, bit_depth: u8) -> f32 {
+        amplitude_noise_dn(sample_noise_dn(&self.sensor, bit_depth, 0.0), 3)
+    }
+
     /// One candidate (column, fringe amplitude), or none when the amplitude is below
     /// `min_modulation_dn`, the best code is further than `max_code_residual`, or its column
     /// lies outside `range`.

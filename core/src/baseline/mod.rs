@@ -118,6 +118,12 @@ pub trait PixelDecoder: PatternSequence {
         out: &mut PixelCandidates<K>,
     );
 
+    /// The noise RMS of the amplitude this decoder gives a light, at a pixel that receives no
+    /// light, sensor DN ([`crate::noise::amplitude_noise_dn`] of the plan's sensor): what a
+    /// point's quality (amplitude over this) is measured in, as FSM's
+    /// [`crate::Decoder::dark_column_noise_dn`].
+    fn dark_amplitude_noise_dn(&self, bit_depth: u8) -> f32;
+
     /// Decodes every pixel of a row in the decoder's layout (`frames[i·W + x]`, this plan's
     /// frame order): the baselines' counterpart of [`crate::Decoder::decode_row`], with the same
     /// checks and errors.

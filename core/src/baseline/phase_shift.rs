@@ -17,6 +17,8 @@ use core::fmt;
 
 use super::{offer_light, PatternSequence, PixelDecoder};
 use crate::candidate::{ColumnRange, PixelCandidates, PixelFlags};
+use crate::noise::{amplitude_noise_dn, sample_noise_dn};
+use crate::plan::SensorNoise;
 
 /// A phase-shift + Gray-code scan.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,6 +35,10 @@ pub struct PhaseShiftPlan {
     pub bits: u8,
     /// A pixel's fringe modulation must exceed this (sensor DN) to be decoded.
     pub min_modulation_dn: f32,
+    /// The camera's sensor: the noise a point's quality is measured in (only the scan reads
+    /// it; plan files written before it have the default).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub sensor: SensorNoise,
 }
 
 /// A violated phase-shift plan rule.
@@ -48,6 +54,8 @@ pub enum PhaseShiftError {
     Bits { bits: u8, needed: u8 },
     /// A threshold must be a finite number, not below 0.
     Threshold { field: &'static str, value: f32 },
+    /// The sensor's noise model ([`SensorNoise::check`]).
+    Sensor { field: &'static str, value: f32 },
 }
 
 impl fmt::Display for PhaseShiftError {
@@ -65,6 +73,9 @@ impl fmt::Display for PhaseShiftError {
             ),
             PhaseShiftError::Threshold { field, value } => {
                 write!(f, "{field} = {value}: must be a finite number, not below 0")
+            }
+            PhaseShiftError::Sensor { field, value } => {
+                write!(f, "{field} = {value}: {}", SensorNoise::RULE)
             }
         }
     }
@@ -100,6 +111,7 @@ impl PhaseShiftPlan {
             steps: 6,
             bits: 7,
             min_modulation_dn: 2.0,
+            sensor: SensorNoise::default(),
         }
     }
 
@@ -147,7 +159,9 @@ impl PhaseShiftPlan {
                 value,
             });
         }
-        Ok(())
+        self.sensor
+            .check()
+            .map_err(|(field, value)| PhaseShiftError::Sensor { field, value })
     }
 
     /// Frames in the sequence: dark, white, fringes, Gray codes.
@@ -196,8 +210,9 @@ impl PhaseShiftPlan {
         }
     }
 
-    /// CRC-64/XZ of the plan's fields, little-endian after the tag `PS`: the identity row dumps
-    /// of its captures carry (distinct from every FSM plan's, whose bytes never start so).
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `PS`: the identity candidate
+    /// files of its decodes carry (distinct from every FSM plan's, whose bytes never start so).
+    /// Not the sensor, which no candidate depends on (it only scales the points' quality).
     pub fn fingerprint(&self) -> u64 {
         let mut bytes = [0u8; 12];
         bytes[..2].copy_from_slice(b"PS");
@@ -211,7 +226,8 @@ impl PhaseShiftPlan {
 
     /// The fingerprint of the frames alone ([`crate::wire::pattern_fingerprint`], tag
     /// `PS`): the columns, the fringe period, the steps and the Gray code bits; not
-    /// `min_modulation_dn`, which only the decoder reads.
+    /// `min_modulation_dn`, which only the decoder reads, nor the sensor, which only the scan
+    /// reads.
     pub fn pattern_fingerprint(&self) -> u64 {
         let mut fields = [0u8; 6];
         fields[..2].copy_from_slice(&self.projector_columns.to_le_bytes());
@@ -256,6 +272,12 @@ impl PatternSequence for PhaseShiftPlan {
 }
 
 impl PixelDecoder for PhaseShiftPlan {
+    /// The modulation of `steps` samples.
+    fn dark_amplitude_noise_dn(&self, bit_depth: u8) -> f32 {
+        let sample = sample_noise_dn(&self.sensor, bit_depth, 0.0);
+        amplitude_noise_dn(sample, self.steps as usize)
+    }
+
     /// One candidate (column, fringe modulation), or none when the modulation is below
     /// `min_modulation_dn` or the Gray code points outside `range`.
     fn decode_pixel<const K: usize>(

@@ -188,13 +188,25 @@ impl<'t> Decoder<'t> {
             }
     }
 
-    /// The noise RMS of one column of the light profile (SPEC §2b) at a pixel that receives no
-    /// light (read noise and code rounding only), sensor DN: the scale a light's amplitude is
-    /// judged against. A lit pixel's noise is higher (shot noise). `None` for the DFT searches.
-    pub fn dark_column_noise_dn(plan: &ScanPlan, bit_depth: u8) -> Option<f32> {
-        let span = cosine_span(plan)?;
+    /// The noise RMS, at a pixel that receives no light (read noise and code rounding only),
+    /// of one column of the light profile (SPEC §2b; the cosine search) or of one bin of the
+    /// spectrum (the DFT searches, eq. 21 with the window's noise gain), in the fringe
+    /// modulation's sensor DN that amplitudes are given in: the scale a light's amplitude is
+    /// judged against, and a point's quality measured in. A lit pixel's noise is higher (shot
+    /// noise).
+    pub fn dark_column_noise_dn(plan: &ScanPlan, bit_depth: u8) -> f32 {
         let sample = crate::noise::sample_noise_dn(&plan.decoding.sensor, bit_depth, 0.0);
-        Some(crate::noise::profile_noise_dn(sample, span))
+        match cosine_span(plan) {
+            Some(span) => crate::noise::profile_noise_dn(sample, span),
+            // A bin's complex variance is `σ²·Σh²/(Σh)²` and an amplitude `2|X|`: per
+            // component, `σ·√(2·Σh²)/Σh`, which is `σ·√(2/M)` without window.
+            None => {
+                let m = plan.band.count as usize;
+                let sum = kernel::window_sum(plan.decoding.window, m);
+                let squares = kernel::window_sum_of_squares(plan.decoding.window, m);
+                sample * crate::math::sqrt((2.0 * squares) as f32) / sum as f32
+            }
+        }
     }
 
     /// Floats of scratch [`Decoder::decode_row`] and every other method need, on any CPU.

@@ -210,6 +210,25 @@ pub struct SensorNoise {
     pub read_noise_electrons: f32,
 }
 
+impl SensorNoise {
+    /// What [`SensorNoise::check`] asks of a field, for error messages.
+    pub const RULE: &'static str =
+        "must be a finite number (above 0 for the full-scale charge, not below 0 for the read noise)";
+
+    /// Checks the model: a finite full-scale charge above 0 and a finite read noise not below 0;
+    /// else the offending field (`sensor.…`) and its value.
+    pub fn check(&self) -> Result<(), (&'static str, f32)> {
+        let (full, read) = (self.full_scale_electrons, self.read_noise_electrons);
+        if !(full.is_finite() && full > 0.0) {
+            return Err(("sensor.full_scale_electrons", full));
+        }
+        if !(read.is_finite() && read >= 0.0) {
+            return Err(("sensor.read_noise_electrons", read));
+        }
+        Ok(())
+    }
+}
+
 impl Default for SensorNoise {
     /// A typical machine-vision CMOS sensor: 10 000 e⁻ at full scale, 6 e⁻ read noise. A
     /// smaller full-scale charge than the real one overstates the shot noise: a higher

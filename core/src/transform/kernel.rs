@@ -373,6 +373,14 @@ pub(crate) fn window_sum(window: Window, m: usize) -> f64 {
     }
 }
 
+/// `Σ_m h_m²` of a window of `m` samples (the spectrum's noise gain, with [`window_sum`]).
+pub(crate) fn window_sum_of_squares(window: Window, m: usize) -> f64 {
+    match window {
+        Window::Rectangular => m as f64,
+        Window::Hann => (0..m).map(|i| hann(i, m) * hann(i, m)).sum(),
+    }
+}
+
 /// Symmetric Hann weight `h_i = ½ − ½cos(2πi/(M−1))`, in `f64`.
 pub(crate) fn hann(i: usize, m: usize) -> f64 {
     0.5 - 0.5 * libm::cos(core::f64::consts::TAU * i as f64 / (m as f64 - 1.0))

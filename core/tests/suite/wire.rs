@@ -573,6 +573,20 @@ fn pattern_fingerprints_change_with_the_frames_and_with_nothing_else() {
             ..ce
         },
     );
+    // The sensor of PS, MPS and CE only scales the points' quality: no candidate depends on
+    // it, so candidate files decoded under another sensor still name the plan.
+    let sensor = fsm_core::SensorNoise {
+        read_noise_electrons: 20.0,
+        ..Default::default()
+    };
+    let resensed: [(&dyn PatternSequence, &dyn PatternSequence); 3] = [
+        (&ps, &PhaseShiftPlan { sensor, ..ps }),
+        (&mps, &MicroPhaseShiftPlan { sensor, ..mps }),
+        (&ce, &CodeEnsemblePlan { sensor, ..ce }),
+    ];
+    for (base, changed) in resensed {
+        assert_eq!(base.identity(), changed.identity());
+    }
 }
 
 #[test]

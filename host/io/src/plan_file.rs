@@ -15,7 +15,7 @@ use std::path::Path;
 
 use fsm_core::{
     CodeEnsemblePlan, GroupCount, LineScanPlan, MicroPhaseShiftPlan, PatternSequence,
-    PhaseShiftPlan, PlanError, ScanPlan,
+    PhaseShiftPlan, PixelDecoder, PlanError, ScanPlan,
 };
 use serde_json::Value;
 
@@ -262,14 +262,27 @@ impl MethodPlan {
         self.patterns().pattern_fingerprint()
     }
 
-    /// The noise RMS of one column of a dark pixel's light profile, sensor DN
-    /// ([`fsm_core::Decoder::dark_column_noise_dn`]): what a point's quality is measured in.
-    /// `None` where the method has no such scale (FSM's DFT searches, the baselines).
-    pub fn dark_column_noise_dn(&self, bit_depth: u8) -> Option<f32> {
+    /// The noise RMS of the amplitude the method's decoder gives a dark pixel's light, sensor
+    /// DN ([`fsm_core::Decoder::dark_column_noise_dn`] for FSM: one column of the light
+    /// profile or one bin of the spectrum; [`PixelDecoder::dark_amplitude_noise_dn`] for the
+    /// others): what a point's quality is measured in.
+    pub fn dark_amplitude_noise_dn(&self, bit_depth: u8) -> f32 {
         match self {
             MethodPlan::Fsm(p) => fsm_core::Decoder::dark_column_noise_dn(p, bit_depth),
-            _ => None,
+            MethodPlan::PhaseShift(p) => p.dark_amplitude_noise_dn(bit_depth),
+            MethodPlan::MicroPhaseShift(p) => p.dark_amplitude_noise_dn(bit_depth),
+            MethodPlan::CodeEnsemble(p) => p.dark_amplitude_noise_dn(bit_depth),
+            MethodPlan::LineScan(p) => p.dark_amplitude_noise_dn(bit_depth),
         }
+    }
+
+    /// Whether each light the method decodes is measured, with a noise its amplitude is judged
+    /// against (FSM, line scanning), rather than named by a code whose unwrapping or
+    /// quantisation can be wrong by whole periods or codewords (phase shift, Micro Phase
+    /// Shifting, Code Ensemble): the scan's confirmation of points by their neighbourhood is for
+    /// the former; the comparison reports every point the codes decode.
+    pub fn measures_lights(&self) -> bool {
+        matches!(self, MethodPlan::Fsm(_) | MethodPlan::LineScan(_))
     }
 
     /// Frames in the sequence.

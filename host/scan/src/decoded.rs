@@ -26,10 +26,12 @@ use rayon::prelude::*;
 pub struct DecodedImage {
     /// Every pixel's flags and candidates.
     pub candidates: CandidateImage,
-    /// The noise RMS of a light profile's column at a dark pixel, sensor DN
-    /// ([`MethodPlan::dark_column_noise_dn`]): what a point's quality is measured in. `None`
-    /// where the method has no such scale (DFT searches, phase shift).
-    pub column_noise_dn: Option<f32>,
+    /// The noise RMS of a light's amplitude at a dark pixel, sensor DN
+    /// ([`MethodPlan::dark_amplitude_noise_dn`]): what a point's quality is measured in.
+    pub amplitude_noise_dn: f32,
+    /// Whether the method measures each light ([`MethodPlan::measures_lights`]): the scan
+    /// confirms such points by their neighbourhood.
+    pub measured_lights: bool,
 }
 
 impl DecodedImage {
@@ -54,10 +56,7 @@ impl DecodedImage {
                 Ok(())
             },
         )?;
-        let image = DecodedImage {
-            candidates,
-            column_noise_dn: plan.dark_column_noise_dn(capture.bit_depth()),
-        };
+        let image = DecodedImage::new(&plan, candidates, capture.bit_depth());
         Ok((image, summary))
     }
 
@@ -78,10 +77,7 @@ impl DecodedImage {
         }
         let candidates =
             CandidateImage::read_file(&mut reader).map_err(|e| Error::Usage(e.to_string()))?;
-        Ok(DecodedImage {
-            candidates,
-            column_noise_dn: plan.dark_column_noise_dn(bit_depth),
-        })
+        Ok(DecodedImage::new(plan, candidates, bit_depth))
     }
 
     /// Decodes rows held in memory (a simulated camera's): `samples(y)` gives row `y` in the
@@ -127,9 +123,15 @@ impl DecodedImage {
         for row in &decoded {
             candidates.append(row);
         }
-        Ok(DecodedImage {
+        Ok(DecodedImage::new(plan, candidates, bit_depth))
+    }
+
+    /// `candidates` decoded with `plan` from a sensor of `bit_depth` bits.
+    fn new(plan: &MethodPlan, candidates: CandidateImage, bit_depth: u8) -> DecodedImage {
+        DecodedImage {
             candidates,
-            column_noise_dn: plan.dark_column_noise_dn(bit_depth),
-        })
+            amplitude_noise_dn: plan.dark_amplitude_noise_dn(bit_depth),
+            measured_lights: plan.measures_lights(),
+        }
     }
 }

@@ -54,8 +54,7 @@ impl ScanCandidates {
 
     /// Reads the candidate file `path` (`fsm decode`'s, or a camera's) decoded with `plan`,
     /// and checks its size against the calibrated camera's. A candidate file does not record
-    /// the sensor's bit depth, which a point's quality is measured in: `bit_depth` is required
-    /// for the plans that measure quality.
+    /// the sensor's bit depth, which a point's quality is measured in: `bit_depth` is required.
     pub fn read(
         plan: &MethodPlan,
         path: &Path,
@@ -65,8 +64,6 @@ impl ScanCandidates {
         let started = Instant::now();
         let bit_depth = match bit_depth {
             Some(bits) => bits,
-            // Any depth tells whether the method measures quality in the sensor's noise.
-            None if plan.dark_column_noise_dn(16).is_none() => 16,
             None => {
                 return Err(Error::Usage(format!(
                     "--candidates {}: a candidate file does not record the sensor's bit depth, \

@@ -146,9 +146,9 @@ pub struct Surface {
     pub column: Vec<Option<f32>>,
     /// Why a pixel has no point; `None` where it has one.
     pub no_point: Vec<Option<NoPoint>>,
-    /// The quality of every point: its light's amplitude over the noise RMS of one column of
-    /// a dark pixel's light profile ([`fsm_core::Decoder::dark_column_noise_dn`]), a
-    /// signal-to-noise ratio. `NaN` where there is no point, or the method has no such scale.
+    /// The quality of every point: its light's amplitude over the noise RMS of a dark pixel's
+    /// amplitude ([`fsm_io::plan_file::MethodPlan::dark_amplitude_noise_dn`]), a
+    /// signal-to-noise ratio. `NaN` where there is no point.
     pub quality: Vec<f32>,
     /// `I_d` (eq. 12), sensor DN.
     pub direct: Vec<f32>,
@@ -308,11 +308,11 @@ impl Surface {
         }
     }
 
-    /// Gives every point its quality: its light's amplitude over `column_noise_dn`.
-    pub fn rate(&mut self, column_noise_dn: Option<f32>) {
+    /// Gives every point its quality: its light's amplitude over `amplitude_noise_dn`.
+    pub fn rate(&mut self, amplitude_noise_dn: f32) {
         for (i, q) in self.quality.iter_mut().enumerate() {
-            *q = match (self.point_mm[i], column_noise_dn) {
-                (Some(_), Some(noise)) if noise > 0.0 => self.direct[i] / noise,
+            *q = match self.point_mm[i] {
+                Some(_) if amplitude_noise_dn > 0.0 => self.direct[i] / amplitude_noise_dn,
                 _ => f32::NAN,
             };
         }
@@ -558,7 +558,7 @@ impl Surface {
         let edges = params
             .drop_edges
             .then(|| surface.edges(&field, 2.0 * params.epsilon_mm));
-        surface.rate(decoded.column_noise_dn);
+        surface.rate(decoded.amplitude_noise_dn);
         surface.drop_below(params.min_quality);
         if params.drop_fictitious {
             surface.drop_fictitious(
@@ -573,16 +573,15 @@ impl Surface {
             let regrown = surface.regrow_fictitious(&field, params.epsilon_mm);
             surface.retest(calibration, &regrown, params);
             // The regrown points are rated and filtered like the rest.
-            surface.rate(decoded.column_noise_dn);
+            surface.rate(decoded.amplitude_noise_dn);
             surface.drop_below(params.min_quality);
         }
         if let Some(edges) = edges {
             surface.drop_edges(&edges);
-            // Only where the decoder measured each light with a known noise (FSM, line
-            // scanning): the codes of phase shift, Micro Phase Shifting and Code Ensemble name
-            // columns with unwrapping and quantisation errors, for which the comparison reports
-            // every point they decode.
-            if decoded.column_noise_dn.is_some() {
+            // Only where the decoder measured each light (FSM, line scanning): the codes of
+            // phase shift, Micro Phase Shifting and Code Ensemble name columns with unwrapping
+            // and quantisation errors, for which the comparison reports every point they decode.
+            if decoded.measured_lights {
                 surface.drop_unconfirmed(params.epsilon_mm);
             }
         }
@@ -621,7 +620,7 @@ mod tests {
             None,
         ];
         let mut s = Surface::select(&field, &before, &SelectionParams::for_footprint(0.5));
-        s.rate(Some(2.0));
+        s.rate(2.0);
         assert_eq!(s.quality[4], 250.0);
         s.drop_below(20.0);
         assert_eq!(s.point_mm[0], None);
@@ -631,9 +630,9 @@ mod tests {
         assert!(s.point_mm[2].is_some() && s.point_mm[4].is_some());
         assert_eq!(s.no_point_counts().low_quality, 1);
         assert_eq!(s.points() + 3, 5);
-        // Without a noise scale nothing is rated, and nothing filtered.
+        // A scale of 0 (no sensor gives one: code rounding alone is 0.29 DN) rates nothing.
         let mut unrated = Surface::select(&field, &before, &SelectionParams::for_footprint(0.5));
-        unrated.rate(None);
+        unrated.rate(0.0);
         unrated.drop_below(20.0);
         assert_eq!(unrated.points(), 3);
     }

@@ -44,8 +44,8 @@ pub struct Args {
     #[command(flatten)]
     capture: CaptureArgs,
     /// Candidate file of the capture (`fsm decode`'s candidates.fsmc, or `fsm camera scan`'s),
-    /// decoded with this plan: the scan starts from its candidates. FSM plans need --bit-depth
-    /// (the file does not record the sensor's, and a point's quality is measured in it).
+    /// decoded with this plan: the scan starts from its candidates. It needs --bit-depth (the
+    /// file does not record the sensor's, and a point's quality is measured in it).
     #[arg(long, value_name = "FILE", group = "CaptureSource")]
     candidates: Option<PathBuf>,
     #[command(flatten)]
@@ -91,10 +91,11 @@ pub struct SelectionArgs {
     /// (specks, strips 1-2 pixels wide); by default they get no point.
     #[arg(long)]
     keep_edges: bool,
-    /// Give no point to a pixel whose light is weaker than this many times the noise RMS of
-    /// one column of a dark pixel's light profile (the point's quality, a signal-to-noise
-    /// ratio; written to points.ply and quality.tiff). 0 keeps every point. Plans decoded by a
-    /// DFT search have no quality and are not filtered.
+    /// Give no point to a pixel whose light is weaker than this many times the noise RMS a
+    /// dark pixel's light amplitude has (FSM: one column of the light profile, or one bin of
+    /// the spectrum; the other methods: their amplitude's; the plan's sensor sets it). That
+    /// ratio is the point's quality, written to points.ply and quality.tiff. 0 keeps every
+    /// point.
     #[arg(long, value_name = "SNR", default_value_t = fsm_scan::selection::DEFAULT_MIN_QUALITY)]
     min_quality: f32,
 }

@@ -267,6 +267,15 @@ fn every_method_goes_plan_simulate_decode_scan() {
         );
         assert!(wrong <= 0.01, "{method}: {summary}");
         assert!(completeness >= 0.95, "{method}: {summary}");
+        // Every method's points carry a quality, and the default filter kept those of at
+        // least 20 times the noise of a dark pixel's amplitude.
+        let qualities = crate::scan::ply_qualities(&scan.join("points.ply"));
+        assert_eq!(qualities.len() as u64, summary["points"].as_u64().unwrap());
+        assert!(
+            qualities.iter().all(|&q| q >= 20.0),
+            "{method}: {:?}",
+            qualities.iter().copied().fold(f32::NAN, f32::min)
+        );
         // `fsm inspect` draws what the method's decoder sees, and names the same candidate.
         let (x, y) = if method == "code-ensemble" {
             (192, 144)

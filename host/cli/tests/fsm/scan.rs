@@ -17,6 +17,16 @@ fn float(e: &DefaultElement, name: &str) -> f32 {
     }
 }
 
+/// Every point's quality in the PLY file `path` (read with ply-rs).
+pub(crate) fn ply_qualities(path: &Path) -> Vec<f32> {
+    let mut file = fs::File::open(path).unwrap();
+    let ply = Parser::<DefaultElement>::new().read_ply(&mut file).unwrap();
+    ply.payload["vertex"]
+        .iter()
+        .map(|v| float(v, "quality"))
+        .collect()
+}
+
 #[test]
 fn a_simulated_mirror_scene_scans_to_a_point_cloud_others_can_read() {
     let dir = tempfile::tempdir().unwrap();
