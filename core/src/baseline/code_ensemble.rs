@@ -6,7 +6,7 @@
 //! | code | what its stripes are | what it survives |
 //! |---|---|---|
 //! | [`Code::Gray`] | conventional (reflected) Gray code, stripes 2–512 wide | defocus and sub-surface scattering: most of its stripes are wide |
-//! | [`Code::LongRun`] | a Gray code whose stripes are 7 to 18 columns wide | blur and defocus |
+//! | [`Code::LongRun`] | a Gray code whose stripes are 8 to 16 columns wide | blur and defocus |
 //! | [`Code::Xor2`] | Gray bits 0–8 XORed with bit 9 (stripes 1–2 wide) | long-range interreflection |
 //! | [`Code::Xor4`] | Gray bits 0–7 XORed with bit 8 (stripes 2–4 wide) | long-range interreflection |
 //!
@@ -21,10 +21,14 @@
 //! frames. A bit reads 1 where the pattern's sample exceeds its inverse's.
 //!
 //! Choices the CE paper leaves to its implementation (`docs/comparison.md`):
-//! - **The long-run code.** The CE paper uses a "max min-SW" Gray code (Goddyn & Gvozdjak), whose
-//!   narrowest stripe is 8 columns, the bound for 10 bits. Ours is built in [`long_run_code`] by
-//!   the composition of Goddyn, Lawrence & Nemeth (1988, Theorem 1) from two 5-bit codes; its
-//!   narrowest stripe is 7 columns (a test checks the figure).
+//! - **The long-run code.** The CE paper uses a "max min-SW" Gray code (Goddyn & Gvozdjak 2003),
+//!   whose narrowest stripe is 8 columns, the most 10 bits allow. Ours reaches 8 too, with
+//!   stripes at most 16 wide (a test checks both figures, and that every bit's runs are at
+//!   least 8 cyclically): [`long_run_code`] changes a low and a high 5-bit half in turn, the
+//!   low half stepping through a 5-bit code of Goddyn, Lawrence & Nemeth (1988, Theorem 2)
+//!   whose runs are 4 to 8 long, the high half through a 512-step walk built from a 64-step
+//!   seed of ours by a symmetry. Before 2026-12-08 it was their Theorem 1 composition of two
+//!   5-bit codes, stripes 7 to 18 wide; the fingerprints tell the two apart.
 //! - **Agreement.** Two codes agree when their columns differ by at most
 //!   [`CodeEnsemblePlan::agreement_columns`]; among agreeing pairs the column is taken with the
 //!   precedence of the authors' decoder (the long-run code first, then XOR-04, then XOR-02).
@@ -158,45 +162,27 @@ pub struct LongRunCode {
 /// The ensemble's long-run Gray code, built once at compile time.
 pub static LONG_RUN: LongRunCode = long_run_code();
 
-/// The word of `s` a's and `t` b's, spread evenly (`P` of Goddyn, Lawrence & Nemeth): true for an
-/// `a`. Place `i` is an `a` when the b's so far are at least `t/s` times the a's so far plus one.
-const fn spread<const N: usize>(s: usize, t: usize) -> [bool; N] {
-    let mut word = [false; N];
-    let (mut a, mut b, mut i) = (0, 0, 0);
-    while i < N {
-        if b * s >= t * (a + 1) {
-            word[i] = true;
-            a += 1;
-        } else {
-            b += 1;
-        }
-        i += 1;
-    }
-    word
-}
-
-/// Builds the ensemble's long-run code from its transition sequence (the bit that changes after
-/// each codeword), by Goddyn, Lawrence & Nemeth's compositions: a 5-bit code of runs ≥ 4 from
-/// two 2-bit codes and a 1-bit code (their Theorem 2, `s = t = 1`), then the 10-bit code from two
-/// of those, interleaved by a word of 17 a's and 15 b's repeated 32 times (Theorem 1). The
-/// result is a cyclic Gray code: every codeword once, one bit changing per step.
-pub const fn long_run_code() -> LongRunCode {
+/// The transition sequence of a 5-bit cyclic Gray code whose runs are all at least 4 long (the
+/// bit that changes after each codeword): Goddyn, Lawrence & Nemeth's composition of two 2-bit
+/// codes and a 1-bit code ("Gray codes with optimized run lengths", Utilitas Mathematica 34,
+/// 1988, Theorem 2 with `n = m = 2`, `r = 1`, `s = t = 1`). Its runs are 4 to 8 long; an
+/// exhaustive search of ours over the 5-bit cyclic Gray codes with runs of at least 4 found
+/// none whose widest run is narrower than 8.
+pub const fn five_bit_transitions() -> [u8; 32] {
     // 2-bit and 1-bit cyclic codes: their transition sequences.
     const TWO: [u8; 4] = [0, 1, 0, 1];
     const ONE: [u8; 2] = [0, 0];
-    // Theorem 2 (n = m = 2, r = 1): Q = P repeated 2^n times with its last b made a c,
-    // Z = Q repeated 2^m times; a's step through A, b's through B (+n), c's through C (+n+m).
-    let p: [bool; 2] = spread(1, 1);
-    // Q's last b: P holds t = 1 b, so it is in Q's last copy of P.
-    let last_b = if p[1] { 6 } else { 7 };
+    // P = "ba" (one b, then one a); Q = P repeated 2^n = 4 times with its last b (place 6)
+    // made a c; Z = Q repeated 2^m = 4 times. The a's step through the first 2-bit code (bits
+    // 0–1), the b's through the second (bits 2–3), the c's through the 1-bit code (bit 4).
     let mut five = [0u8; 32];
     let (mut ia, mut ib, mut ic, mut i) = (0, 0, 0, 0);
     while i < 32 {
         let q = i % 8; // place within Q
-        five[i] = if p[q % 2] {
+        five[i] = if q % 2 == 1 {
             ia += 1;
             TWO[(ia - 1) % 4]
-        } else if q == last_b {
+        } else if q == 6 {
             ic += 1;
             ONE[(ic - 1) % 2] + 4
         } else {
@@ -205,19 +191,86 @@ pub const fn long_run_code() -> LongRunCode {
         };
         i += 1;
     }
-    // Theorem 1 (n = m = 5, s = 17, t = 15).
-    let word: [bool; 32] = spread(17, 15);
+    five
+}
+
+/// The first 64 steps of the walk the high five bits take ([`long_run_code`]): the bit (0–4)
+/// that changes at each step. Found by a depth-first search of ours (not taken from a
+/// publication) for a sequence with the three properties [`long_run_code`] needs, which a test
+/// checks: no bit changes twice within 4 steps, also across the joins to its images under
+/// [`high_shift`]; its walk from 0 ends at [`HIGH_OFFSET`]; and the words `32` steps apart in
+/// it lie in different orbits of [`high_symmetry`]. Among the sequences found, one whose runs
+/// are at most 6 steps long.
+pub const HIGH_SEED: [u8; 64] = [
+    4, 0, 3, 1, 4, 2, 3, 0, 4, 1, 3, 2, 0, 4, 3, 1, 2, 0, 4, 1, 3, 0, 2, 4, 1, 3, 2, 0, 4, 3, 1, 0,
+    2, 4, 3, 1, 2, 0, 4, 3, 1, 2, 0, 4, 3, 1, 0, 2, 4, 3, 1, 2, 0, 3, 4, 1, 2, 0, 4, 3, 1, 0, 2, 3,
+];
+
+/// The bit permutation of [`high_symmetry`]: bits 0 → 1 → 2 → 3 → 0, bit 4 fixed.
+pub const fn high_shift(bit: u8) -> u8 {
+    if bit < 4 {
+        (bit + 1) % 4
+    } else {
+        bit
+    }
+}
+
+/// Bits `0b10001`: the word the walk of [`HIGH_SEED`] ends at, and the offset of
+/// [`high_symmetry`].
+pub const HIGH_OFFSET: u8 = 0b1_0001;
+
+/// The symmetry of the high bits' walk: the word `w` with its bits moved by [`high_shift`], then
+/// XORed with [`HIGH_OFFSET`]. Its eighth power is the identity and its fourth adds `0b01111`,
+/// so every orbit holds 8 words, all of the same parity: two orbits of even words, two of odd.
+pub const fn high_symmetry(w: u8) -> u8 {
+    let mut moved = 0;
+    let mut bit = 0;
+    while bit < 5 {
+        if (w >> bit) & 1 == 1 {
+            moved |= 1 << high_shift(bit);
+        }
+        bit += 1;
+    }
+    moved ^ HIGH_OFFSET
+}
+
+/// Builds the ensemble's long-run code from its transition sequence (the bit that changes after
+/// each codeword). The 10-bit cube is the product of two 5-bit cubes, the low bits 0–4 and the
+/// high bits 5–9, and the code changes a low bit and a high bit in turn, as the product
+/// circuits of Goddyn & Gvozdjak do (“Binary Gray codes with long bit runs”, Electronic
+/// Journal of Combinatorics 10, 2003, R27, Lemma 3). Each half's own sequence keeps a bit at
+/// least 4 of its steps, so every bit of the code keeps at least 8 columns. Which 512-step
+/// high walk makes the circuit meet every word once is our own choice, below.
+///
+/// - The low bits step through the 5-bit code of [`five_bit_transitions`] (32 steps, repeated
+///   16 times): the low word at step `k` is `A[k mod 32]`, `A` that code's words.
+/// - The high bits walk 512 steps: [`HIGH_SEED`], then 7 more copies, copy `q` with every bit
+///   moved `q` times by [`high_shift`]. The high word `B[k]` at step `k` is then
+///   `σ^q(B[k − 64q])` with `σ` = [`high_symmetry`], and the walk closes after 8 copies.
+///
+/// Codeword `2k` is `(A[k mod 32], B[k])` and codeword `2k + 1` is `(A[k+1 mod 32], B[k])`. A
+/// low word `A[i]` is thus paired with the high words `B[k]` for `k ≡ i` and for `k ≡ i − 1`
+/// (mod 32), of opposite parities; each of those two sets is the 16 words `σ^p(B[r])`,
+/// `σ^p(B[r + 32])`, `p < 8`, which are distinct because [`HIGH_SEED`] puts `B[r]` and
+/// `B[r + 32]` in different orbits of `σ`. So every 10-bit word is a codeword exactly once, and
+/// the code is a cyclic Gray code: one bit changes per step, also from the last codeword to the
+/// first. Its runs are 8 to 16 columns wide (the low code's widest run, 8 of its steps, is 16
+/// columns; the high walk's, 6 steps, 12).
+pub const fn long_run_code() -> LongRunCode {
+    let low = five_bit_transitions();
     let mut transitions = [0u8; CODEWORDS];
-    let (mut ia, mut ib, mut i) = (0, 0, 0);
-    while i < CODEWORDS {
-        transitions[i] = if word[i % 32] {
-            ia += 1;
-            five[(ia - 1) % 32]
-        } else {
-            ib += 1;
-            five[(ib - 1) % 32] + 5
-        };
-        i += 1;
+    let mut k = 0;
+    while k < CODEWORDS / 2 {
+        let (copy, step) = (k / 64, k % 64);
+        let mut high = HIGH_SEED[step];
+        let mut q = 0;
+        while q < copy {
+            high = high_shift(high);
+            q += 1;
+        }
+        transitions[2 * k] = low[k % 32];
+        transitions[2 * k + 1] = 5 + high;
+        k += 1;
     }
     let mut code = LongRunCode {
         codeword: [0; CODEWORDS],
@@ -232,6 +285,16 @@ pub const fn long_run_code() -> LongRunCode {
         k += 1;
     }
     code
+}
+
+/// CRC-32 of the long-run code's codewords (each little-endian, in index order), part of every
+/// Code Ensemble fingerprint: a capture or decode made with another long-run code is refused.
+pub fn long_run_digest() -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    for word in LONG_RUN.codeword.iter() {
+        h.update(&word.to_le_bytes());
+    }
+    h.finalize()
 }
 
 /// A Code Ensemble scan.
@@ -366,23 +429,29 @@ impl CodeEnsemblePlan {
         (k < CODEWORDS).then_some(0.5 * (first + last) as f32)
     }
 
-    /// CRC-64/XZ of the plan's fields, little-endian after the tag `CE`: the identity candidate
-    /// files of its decodes carry. Not the sensor, which no candidate depends on (it only
-    /// scales the points' quality).
+    /// CRC-64/XZ of the plan's fields, little-endian after the tag `CE`, then the
+    /// [`long_run_digest`]: the identity candidate files of its decodes carry. Not the sensor,
+    /// which no candidate depends on (it only scales the points' quality).
     pub fn fingerprint(&self) -> u64 {
-        let mut bytes = [0u8; 10];
+        let mut bytes = [0u8; 14];
         bytes[..2].copy_from_slice(b"CE");
         bytes[2..4].copy_from_slice(&self.projector_columns.to_le_bytes());
         bytes[4..6].copy_from_slice(&self.agreement_columns.to_le_bytes());
         bytes[6..10].copy_from_slice(&self.min_contrast_dn.to_le_bytes());
+        bytes[10..14].copy_from_slice(&long_run_digest().to_le_bytes());
         crate::wire::crc64(&bytes)
     }
 
     /// The fingerprint of the frames alone ([`crate::wire::pattern_fingerprint`], tag
-    /// `CE`): the columns (the four codes are fixed); not the decoder's
-    /// `agreement_columns` and `min_contrast_dn`.
+    /// `CE`): the columns, then the [`long_run_digest`] (the other three codes are fixed); not
+    /// the decoder's `agreement_columns` and `min_contrast_dn`. Row dumps recorded with the
+    /// long-run code of before 2026-12-08 (narrowest stripe 7 columns) carry another one and
+    /// are refused.
     pub fn pattern_fingerprint(&self) -> u64 {
-        crate::wire::pattern_fingerprint(b"CE", &self.projector_columns.to_le_bytes())
+        let mut fields = [0u8; 6];
+        fields[..2].copy_from_slice(&self.projector_columns.to_le_bytes());
+        fields[2..6].copy_from_slice(&long_run_digest().to_le_bytes());
+        crate::wire::pattern_fingerprint(b"CE", &fields)
     }
 
     /// The consistency rule: the column two codes agree on, in the authors' precedence, given

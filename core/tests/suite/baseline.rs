@@ -588,16 +588,79 @@ fn the_ensembles_codes_have_their_stripe_widths_and_decode_every_codeword() {
     }
     let lr = code_ensemble::LONG_RUN.codeword;
     assert_eq!((lr[0] ^ lr[CODEWORDS - 1]).count_ones(), 1);
+    // The long-run code read cyclically: every bit keeps its value at least 8 codewords, also
+    // across the wrap from the last codeword to the first.
+    for bit in 0..code_ensemble::BITS {
+        let changes: Vec<usize> = (0..CODEWORDS)
+            .filter(|&k| ((lr[k] ^ lr[(k + 1) % CODEWORDS]) >> bit) & 1 == 1)
+            .collect();
+        assert!(
+            changes.len() >= 2,
+            "bit {bit} changes {} times",
+            changes.len()
+        );
+        for (i, &k) in changes.iter().enumerate() {
+            let next = changes[(i + 1) % changes.len()];
+            let run = (next + CODEWORDS - k) % CODEWORDS;
+            assert!(
+                (8..=16).contains(&run),
+                "bit {bit}: a run of {run} after codeword {k}"
+            );
+        }
+    }
     assert_eq!(stripes(Code::Gray), (2, 512));
-    assert_eq!(stripes(Code::LongRun).0, 7);
+    // The narrowest stripe is 8 columns, the most 10 bits allow (Goddyn & Gvozdjak 2003); the
+    // widest measures 16.
+    assert_eq!(stripes(Code::LongRun).0, 8);
     assert!(
-        stripes(Code::LongRun).1 <= 18,
+        stripes(Code::LongRun).1 <= 16,
         "{:?}",
         stripes(Code::LongRun)
     );
     // The XOR codes hold no stripe wider than their base's.
     assert_eq!(stripes(Code::Xor2), (1, 2));
     assert_eq!(stripes(Code::Xor4), (2, 4));
+}
+
+#[test]
+fn the_long_run_codes_high_seed_has_the_properties_its_construction_needs() {
+    use code_ensemble::{high_shift, high_symmetry, HIGH_OFFSET, HIGH_SEED};
+    let n = HIGH_SEED.len();
+    // The whole high walk: the seed, then its 7 copies with every bit moved by `high_shift`.
+    let walk: Vec<u8> = (0..8 * n)
+        .map(|k| (0..k / n).fold(HIGH_SEED[k % n], |b, _| high_shift(b)))
+        .collect();
+    // No bit changes twice within 4 steps, cyclically (so within 8 columns of the code).
+    for k in 0..walk.len() {
+        for d in 1..4 {
+            assert_ne!(
+                walk[k],
+                walk[(k + d) % walk.len()],
+                "steps {k} and {}",
+                k + d
+            );
+        }
+    }
+    // The seed's walk from 0 ends at HIGH_OFFSET.
+    let mut words = vec![0u8];
+    for &b in HIGH_SEED.iter() {
+        words.push(words.last().unwrap() ^ (1 << b));
+    }
+    assert_eq!(words[n], HIGH_OFFSET);
+    // Words 32 steps apart lie in different orbits of the symmetry (8 words each).
+    let orbit = |w: u8| {
+        let mut o = vec![w];
+        while let Some(&x) = o.last().filter(|&&x| high_symmetry(x) != w) {
+            o.push(high_symmetry(x));
+        }
+        o
+    };
+    for w in 0..32u8 {
+        assert_eq!(orbit(w).len(), 8, "{w:05b}");
+    }
+    for r in 0..n / 2 {
+        assert!(!orbit(words[r]).contains(&words[r + n / 2]), "step {r}");
+    }
 }
 
 #[test]
@@ -733,6 +796,21 @@ fn ce_plan_rules() {
     let mut other = CodeEnsemblePlan::paper();
     other.agreement_columns = 2;
     assert_ne!(base, other.fingerprint());
+    // Both fingerprints name the long-run code: captures and decodes made before 2026-12-08,
+    // with the code whose narrowest stripe was 7 columns, are refused. Those of the paper's plan
+    // then were eaf07a70a2e75731 (the plan's bytes without the code's digest) and the pattern
+    // fingerprint of the columns alone.
+    assert_eq!(code_ensemble::long_run_digest(), 0xc5ee_fc81);
+    assert_eq!(base, 0xe169_fddf_fb6a_0538);
+    assert_ne!(base, 0xeaf0_7a70_a2e7_5731);
+    let paper = CodeEnsemblePlan::paper();
+    assert_ne!(
+        paper.pattern_fingerprint(),
+        fsm_core::wire::pattern_fingerprint(b"CE", &768u16.to_le_bytes())
+    );
+    let mut agreeing = paper;
+    agreeing.agreement_columns = 2;
+    assert_eq!(paper.pattern_fingerprint(), agreeing.pattern_fingerprint());
 }
 
 /// A point's quality is its light's amplitude over [`PixelDecoder::dark_amplitude_noise_dn`]:
