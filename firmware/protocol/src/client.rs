@@ -181,6 +181,22 @@ pub struct ScanSummary {
     pub bytes: u64,
 }
 
+impl ScanSummary {
+    /// What `fsm camera scan` says once `device`'s answers to the rows of `dump` are in
+    /// `out`: `ADDR: 480 rows of scan.dump scanned (plan …), 123456 bytes -> out.fsmc`.
+    pub fn report(&self, device: &Device, dump: &Path, out: &Path) -> String {
+        format!(
+            "{}: {} rows of {} scanned (plan {:016x}), {} bytes -> {}",
+            device.address,
+            self.rows,
+            dump.display(),
+            self.fingerprint,
+            self.bytes,
+            out.display()
+        )
+    }
+}
+
 /// One request/response conversation with a camera.
 pub struct Client<L> {
     link: L,
@@ -512,35 +528,96 @@ fn answer_error(request: RequestKind, response: &Response<'_>) -> ClientError {
     }
 }
 
-/// `fsm upload --plan P --device ADDR`: uploads `plan` and returns the acknowledged
-/// fingerprint (checked) and the camera's limits.
-pub fn upload(
-    address: &str,
-    plan: &ScanPlan,
-    timeout: Duration,
-) -> Result<(u64, DeviceInfo), ClientError> {
-    let mut client = Client::connect(address, timeout)?;
-    let info = client.hello()?;
-    let fingerprint = client.upload_plan(plan)?;
-    Ok((fingerprint, info))
+/// A camera as `fsm upload` and `fsm camera` address it: where it is (`tcp://host:port`, a
+/// serial port path, `path@baud`) and how long to wait for each of its answers. Each call is
+/// one conversation on a new link; its error names the camera ([`DeviceError`]), so that the
+/// commands print it as it is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Device {
+    /// The address, as given.
+    pub address: String,
+    /// How long to wait for each answer.
+    pub timeout: Duration,
 }
 
-/// `fsm camera scan`: scans the row dump at `dump_path` through the camera at `address`,
-/// writing the candidate file (or raw rows) to `out`. Making `out` whole or nothing (a
-/// staged file committed on success) is the caller's: the host has one atomic writer.
-pub fn scan_dump_file(
-    address: &str,
-    plan: &ScanPlan,
-    dump_path: &Path,
-    output: RowOutput,
-    out: &mut impl Write,
-    timeout: Duration,
-) -> Result<ScanSummary, ClientError> {
-    let dump = fs::read(dump_path).map_err(|source| ClientError::Io {
-        context: format!("reading {}", dump_path.display()),
-        source,
-    })?;
-    let mut client = Client::connect(address, timeout)?;
-    client.hello()?;
-    client.scan_dump(plan, &dump, &dump_path.display().to_string(), output, out)
+/// Why a conversation with a [`Device`] failed: `tcp://10.0.0.5:7070: connecting to …`.
+#[derive(Debug)]
+pub struct DeviceError {
+    /// The camera's address, as given.
+    pub address: String,
+    /// What failed.
+    pub error: ClientError,
+}
+
+impl fmt::Display for DeviceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.address, self.error)
+    }
+}
+
+impl std::error::Error for DeviceError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
+}
+
+impl Device {
+    /// The camera at `address`, answering within `timeout`.
+    pub fn new(address: &str, timeout: Duration) -> Self {
+        Device {
+            address: address.to_owned(),
+            timeout,
+        }
+    }
+
+    /// Runs `talk` with a client connected to the camera, naming the camera in its error.
+    fn talk<T>(
+        &self,
+        talk: impl FnOnce(&mut Client<Box<dyn Link>>) -> Result<T, ClientError>,
+    ) -> Result<T, DeviceError> {
+        Client::connect(&self.address, self.timeout)
+            .and_then(|mut client| talk(&mut client))
+            .map_err(|error| DeviceError {
+                address: self.address.clone(),
+                error,
+            })
+    }
+
+    /// `fsm camera info`: the camera's protocol version, limits and loaded plan.
+    pub fn info(&self) -> Result<DeviceInfo, DeviceError> {
+        self.talk(|client| client.hello())
+    }
+
+    /// `fsm upload --plan P --device ADDR`: uploads `plan` and returns the acknowledged
+    /// fingerprint (checked) and the camera's limits.
+    pub fn upload(&self, plan: &ScanPlan) -> Result<(u64, DeviceInfo), DeviceError> {
+        self.talk(|client| {
+            let info = client.hello()?;
+            Ok((client.upload_plan(plan)?, info))
+        })
+    }
+
+    /// `fsm camera scan`: scans the row dump at `dump_path` through the camera, writing the
+    /// candidate file (or raw rows) to `out`. Making `out` whole or nothing (a staged file
+    /// committed on success) is the caller's: the host has one atomic writer.
+    pub fn scan_dump_file(
+        &self,
+        plan: &ScanPlan,
+        dump_path: &Path,
+        output: RowOutput,
+        out: &mut impl Write,
+    ) -> Result<ScanSummary, DeviceError> {
+        let dump = fs::read(dump_path).map_err(|source| DeviceError {
+            address: self.address.clone(),
+            error: ClientError::Io {
+                context: format!("reading {}", dump_path.display()),
+                source,
+            },
+        })?;
+        let name = dump_path.display().to_string();
+        self.talk(|client| {
+            client.hello()?;
+            client.scan_dump(plan, &dump, &name, output, out)
+        })
+    }
 }

@@ -440,3 +440,44 @@ fn device_info_prints_a_line_per_field() {
         "camera protocol 1, up to 2048 pixels per row, 8 candidates per pixel"
     );
 }
+
+/// A conversation with a camera that fails names the camera: `fsm upload` and `fsm camera`
+/// print the error as it is. (Port 1 of the loopback address has no listener.)
+#[cfg(feature = "std")]
+#[test]
+fn a_device_names_itself_in_its_errors() {
+    use fsm_protocol::client::Device;
+    let device = Device::new("tcp://127.0.0.1:1", std::time::Duration::from_secs(2));
+    let e = device.info().unwrap_err().to_string();
+    assert!(e.starts_with("tcp://127.0.0.1:1: connecting to"), "{e}");
+    let missing = std::path::Path::new("no-such-dump.fsmd");
+    let plan = fsm_core::ScanPlan::paper_bfsm();
+    let output = RowOutput::Candidates;
+    let e = device.scan_dump_file(&plan, missing, output, &mut Vec::new());
+    let e = e.unwrap_err().to_string();
+    assert!(
+        e.starts_with("tcp://127.0.0.1:1: reading no-such-dump.fsmd: "),
+        "{e}"
+    );
+}
+
+/// `fsm camera scan` ends with a line of what the camera answered.
+#[cfg(feature = "std")]
+#[test]
+fn a_scan_summary_says_what_was_scanned() {
+    use fsm_protocol::client::{Device, ScanSummary};
+    let device = Device::new("tcp://10.0.0.5:7070", std::time::Duration::from_secs(1));
+    let summary = ScanSummary {
+        fingerprint: 0xab,
+        rows: 480,
+        bytes: 123_456,
+    };
+    let (dump, out) = (
+        std::path::Path::new("scan.dump"),
+        std::path::Path::new("c.fsmc"),
+    );
+    assert_eq!(
+        summary.report(&device, dump, out),
+        "tcp://10.0.0.5:7070: 480 rows of scan.dump scanned (plan 00000000000000ab), 123456 bytes -> c.fsmc"
+    );
+}

@@ -198,6 +198,14 @@ impl fmt::Display for CalibrateError {
 
 impl std::error::Error for CalibrateError {}
 
+/// A failed calibration as the host's error (`fsm calibrate target`'s `calibration failed:
+/// …`), as `fsm_sim`'s errors convert, so that callers need no wrapper of their own.
+impl From<CalibrateError> for fsm_io::Error {
+    fn from(e: CalibrateError) -> Self {
+        fsm_io::Error::Usage(format!("calibration failed: {e}"))
+    }
+}
+
 /// Fewest board corners accepted (a homography needs 4; the refinement more).
 pub const MIN_CORNERS: usize = 6;
 

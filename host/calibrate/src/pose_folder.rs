@@ -2,6 +2,7 @@
 //! map, from a captured stack of the plan's patterns (decoded with `fsm_io`'s pipeline) or from
 //! `column.tiff` beside a white frame.
 
+use std::fmt;
 use std::path::Path;
 
 use fsm_core::ScanPlan;
@@ -117,6 +118,31 @@ pub fn load_pose(
     })
 }
 
+/// A pose folder read and its corners found, as [`observe_poses`] reports it; its `Display`
+/// is the line `fsm calibrate target` prints (`pose1/: 54 corners, 87.3% of pixels decoded`),
+/// made here beside the counts it reports.
+#[derive(Clone, Copy, Debug)]
+pub struct PoseSeen<'a> {
+    /// The pose folder.
+    pub dir: &'a Path,
+    /// Corners found.
+    pub corners: usize,
+    /// Share of the pixels with a decoded column, 0 to 1.
+    pub decoded: f64,
+}
+
+impl fmt::Display for PoseSeen<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: {} corners, {:.1}% of pixels decoded",
+            self.dir.display(),
+            self.corners,
+            100.0 * self.decoded
+        )
+    }
+}
+
 /// Every pose of a calibration: the board's corners and the decoded columns per pose, and the
 /// white frames (for the residual pictures), all of one image size.
 pub struct ObservedPoses {
@@ -133,14 +159,14 @@ pub struct ObservedPoses {
 /// Reads every pose folder of `dirs` ([`load_pose`]) and finds `board`'s corners in its white
 /// frame. Refuses fewer folders than a calibration needs before any work, folders of another
 /// image size than the first's, and folders where the corners are not found, naming the
-/// folder. `seen(dir, corners, decoded_share)` is told about each pose.
+/// folder. `seen` is told about each pose ([`PoseSeen`]).
 pub fn observe_poses(
     dirs: &[std::path::PathBuf],
     plan: &ScanPlan,
     bit_depth: Option<u8>,
     options: &DecodeOptions,
     board: &crate::board::Checkerboard,
-    mut seen: impl FnMut(&Path, usize, f64),
+    mut seen: impl FnMut(&PoseSeen),
 ) -> Result<ObservedPoses> {
     if dirs.len() < crate::zhang::MIN_POSES {
         return Err(Error::Usage(format!(
@@ -173,7 +199,11 @@ pub fn observe_poses(
         let corners = crate::corners::detect(&pose.white, w, h, board)
             .map_err(|e| Error::Usage(format!("{}: corners: {e}", dir.display())))?;
         let lit = pose.columns.iter().filter(|c| c.is_finite()).count();
-        seen(dir, corners.len(), lit as f64 / (w * h).max(1) as f64);
+        seen(&PoseSeen {
+            dir,
+            corners: corners.len(),
+            decoded: lit as f64 / (w * h).max(1) as f64,
+        });
         observed.observations.push(crate::PoseObservation {
             label: dir.display().to_string(),
             corners_px: corners,
@@ -203,7 +233,7 @@ mod tests {
         let plan = ScanPlan::paper_bfsm();
         let options = DecodeOptions::default();
         let mut seen = 0;
-        let e = observe_poses(&dirs, &plan, None, &options, &board, |_, _, _| seen += 1)
+        let e = observe_poses(&dirs, &plan, None, &options, &board, |_| seen += 1)
             .err()
             .expect("refused")
             .to_string();

@@ -1,7 +1,14 @@
 //! The calibration report as a person reads it: the text table `fsm calibrate target` prints
-//! and each pose's residual picture.
+//! and each pose's residual picture; and the files a calibration from pose folders writes
+//! ([`TargetOutputs`]).
+
+use std::path::Path;
+
+use fsm_geometry::Calibration;
+use fsm_io::outputs::write_file;
 
 use crate::calibrate::{CalibrationReport, Parameter, PoseReport};
+use crate::pose_folder::ObservedPoses;
 
 impl CalibrationReport {
     /// The report as the text table `fsm calibrate target` prints: RMS per pose and overall,
@@ -115,7 +122,7 @@ pub fn residual_picture(pose: &PoseReport, white: &[f32], w: usize, h: usize) ->
 /// Writes one residual picture per pose ([`residual_picture`]) into `dir` (created if
 /// missing): `pose00.png`, `pose01.png`, …, each whole or not at all.
 pub fn write_residual_pictures(
-    dir: &std::path::Path,
+    dir: &Path,
     report: &CalibrationReport,
     whites: &[Vec<f32>],
     (w, h): (u32, u32),
@@ -131,4 +138,46 @@ pub fn write_residual_pictures(
         fsm_io::outputs::write_file(&path, &bytes)?;
     }
     Ok(())
+}
+
+/// The files `fsm calibrate target` writes once it has calibrated: the calibration file, the
+/// JSON report and the residual pictures (both optional), in that order, each whole or not at
+/// all. Here rather than in the command: which files a calibration makes, and the white frames
+/// the pictures are drawn on ([`ObservedPoses`]), are the calibration's.
+#[derive(Clone, Copy, Debug)]
+pub struct TargetOutputs<'a> {
+    /// The calibration file (TOML).
+    pub calibration: &'a Path,
+    /// The report as JSON ([`CalibrationReport::to_json`]).
+    pub report: Option<&'a Path>,
+    /// The folder of the residual pictures ([`write_residual_pictures`]; created if missing).
+    pub residuals: Option<&'a Path>,
+}
+
+impl TargetOutputs<'_> {
+    /// Writes `calibration` and its `report` from `poses`; `wrote` gets a line as each output
+    /// is written (`wrote cal.toml`, `wrote 6 residual pictures to residuals/`).
+    pub fn write(
+        &self,
+        calibration: &Calibration,
+        report: &CalibrationReport,
+        poses: &ObservedPoses,
+        mut wrote: impl FnMut(String),
+    ) -> fsm_io::Result<()> {
+        write_file(self.calibration, calibration.to_toml().as_bytes())?;
+        wrote(format!("wrote {}", self.calibration.display()));
+        if let Some(path) = self.report {
+            write_file(path, report.to_json().as_bytes())?;
+            wrote(format!("wrote {}", path.display()));
+        }
+        if let Some(dir) = self.residuals {
+            write_residual_pictures(dir, report, &poses.whites, (poses.width, poses.height))?;
+            let count = report.poses.len();
+            wrote(format!(
+                "wrote {count} residual pictures to {}",
+                dir.display()
+            ));
+        }
+        Ok(())
+    }
 }

@@ -129,6 +129,64 @@ impl<'a> ResponseReport<'a> {
     }
 }
 
+/// Where `fsm calibrate response` puts the response it keeps, each optional. Here rather than
+/// in the command because the outputs depend on one another: the report names the response
+/// file and the calibration file written.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ResponseOutputs<'a> {
+    /// A response file (for `fsm patterns --gamma`), its comment from [`file_comment`].
+    pub file: Option<&'a Path>,
+    /// A calibration file whose `[projector_response]` section is replaced
+    /// ([`store_in_calibration`]).
+    pub calibration: Option<&'a Path>,
+    /// The JSON report ([`ResponseReport`]).
+    pub json: Option<&'a Path>,
+}
+
+impl ResponseOutputs<'_> {
+    /// Writes `chosen`, kept of `estimate` of the captures in `images`, to each output given,
+    /// in the order above; `wrote` gets a line as each is written (`wrote response.toml (gamma
+    /// 2.2000)`, `stored gamma 2.2000 in cal.toml`, `wrote report.json`).
+    pub fn write(
+        &self,
+        images: &Path,
+        estimate: &ResponseEstimate,
+        chosen: &ChosenResponse,
+        mut wrote: impl FnMut(String),
+    ) -> Result<()> {
+        let what = &chosen.what;
+        if let Some(out) = self.file {
+            let comment = file_comment(estimate, images, estimate.levels.len());
+            chosen.response.write(out, &comment)?;
+            wrote(format!("wrote {} ({what})", out.display()));
+        }
+        if let Some(path) = self.calibration {
+            store_in_calibration(path, &chosen.response)?;
+            wrote(format!("stored {what} in {}", path.display()));
+        }
+        if let Some(path) = self.json {
+            let report = ResponseReport::new(images, estimate, chosen, self.file, self.calibration);
+            report.write(path)?;
+            wrote(format!("wrote {}", path.display()));
+        }
+        Ok(())
+    }
+}
+
+/// The projector response of `fsm patterns`: read from a response file (`--gamma`), else from
+/// a calibration file's `[projector_response]` section ([`response_from_calibration`]); none
+/// without either. One place for the two sources a response comes from.
+pub fn read_response(
+    file: Option<&Path>,
+    calibration: Option<&Path>,
+) -> Result<Option<ProjectorResponse>> {
+    match (file, calibration) {
+        (Some(path), _) => ProjectorResponse::read(path).map(Some),
+        (None, Some(path)) => response_from_calibration(path).map(Some),
+        (None, None) => Ok(None),
+    }
+}
+
 /// Replaces the `[projector_response]` section of the calibration file `path` (rewritten whole
 /// or not at all).
 pub fn store_in_calibration(path: &Path, response: &ProjectorResponse) -> Result<()> {

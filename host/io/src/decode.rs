@@ -547,6 +547,16 @@ pub fn decode_to_dir(
     Ok(summary)
 }
 
+/// What [`decode_to_dir`] wrote into `out`, as `fsm decode` says it: `wrote
+/// OUT/{candidates.fsmc, column.tiff, column.png}`. The names are the decoder's outputs, so
+/// the line is made here rather than by the command.
+pub fn files_written(out: &Path) -> String {
+    format!(
+        "wrote {}/{{{CANDIDATE_FILE_NAME}, {COLUMN_TIFF_NAME}, {COLUMN_PREVIEW_NAME}}}",
+        out.display()
+    )
+}
+
 fn decode_into(
     plan: &MethodPlan,
     capture: &Capture,

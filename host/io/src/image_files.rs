@@ -45,6 +45,34 @@ impl ImageFormat {
     }
 }
 
+/// An image size `WxH` as the commands take it (`--camera 640x480`, `--camera-size`), both
+/// sides at least `min` pixels; the errors say `expected WxH` or which side is not a size.
+/// The commands' value syntaxes are parsed in the libraries, as `KEY=VALUE`
+/// ([`crate::plan_file::parse_setting`]) and a board pose are: this one and [`parse_pixel`]
+/// are the images'.
+pub fn parse_size(s: &str, min: u32) -> Result<(u32, u32), String> {
+    let what = format!("a size of {min} or more pixels");
+    pair(s, 'x', "WxH, e.g. 1280x1024", &what, min)
+}
+
+/// A pixel `X,Y` (0-based) as `fsm inspect --pixel` takes it.
+pub fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    pair(s, ',', "X,Y, e.g. 640,480", "a pixel coordinate", 0)
+}
+
+/// Two whole numbers of at least `min` separated by `sep`; the errors say `expected {form}`
+/// or that a number is not `{what}`.
+fn pair(s: &str, sep: char, form: &str, what: &str, min: u32) -> Result<(u32, u32), String> {
+    let (a, b) = s
+        .split_once(sep)
+        .ok_or_else(|| format!("`{s}`: expected {form}"))?;
+    let parse = |v: &str| {
+        (v.trim().parse::<u32>().ok().filter(|&v| v >= min))
+            .ok_or_else(|| format!("`{s}`: `{v}` is not {what}"))
+    };
+    Ok((parse(a)?, parse(b)?))
+}
+
 /// Size and sample depth of a grey image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImageInfo {

@@ -420,6 +420,31 @@ pub fn check_file_target(target: &Path, replace: bool) -> Result<()> {
     }
 }
 
+/// [`check_file_target`] for each of `targets`: a command's optional single-file outputs
+/// (`fsm plan --out --wire`, `fsm calibrate target --report`, `fsm calibrate response --out`),
+/// given as `Option`s or a list, all checked before any work in one call.
+pub fn check_file_targets<'a>(
+    targets: impl IntoIterator<Item = &'a Path>,
+    replace: bool,
+) -> Result<()> {
+    targets
+        .into_iter()
+        .try_for_each(|target| check_file_target(target, replace))
+}
+
+/// [`check_file_target`] for an output made from the file `input`: `target` is refused when
+/// it is that file, whatever `replace` says (`fsm calibrate import --in X --out X --force`
+/// would replace what it reads), with `--out TARGET is {why}`. Here beside the rule it adds
+/// to, rather than in the commands that take an input and an `--out` file.
+pub fn check_file_target_not(target: &Path, input: &Path, replace: bool, why: &str) -> Result<()> {
+    match (input.canonicalize(), target.canonicalize()) {
+        (Ok(a), Ok(b)) if a == b => {
+            Err(Error::Usage(format!("--out {} is {why}", target.display())))
+        }
+        _ => check_file_target(target, replace),
+    }
+}
+
 fn check_target(target: &Path, replace: bool) -> Result<()> {
     match fs::metadata(target) {
         Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),

@@ -208,6 +208,13 @@ impl Manifest {
             self.width, self.height
         )
     }
+
+    /// What `fsm patterns` says once the set is in the folder `dir`: `wrote 770 images of
+    /// 768x768 (8-bit) and manifest.json to DIR`.
+    pub fn written_to(&self, dir: &Path) -> String {
+        let (what, name) = (self.describe(), MANIFEST_NAME);
+        format!("wrote {what} and {name} to {}", dir.display())
+    }
 }
 
 /// The manifest entry of `pattern`.

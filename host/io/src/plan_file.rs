@@ -98,6 +98,16 @@ impl Preset {
             Preset::PaperEfsm2Fast => ScanPlan::paper_efsm(GroupCount::Two).with_local_maxima(),
         }
     }
+
+    /// The plan with `fsm plan --set` overrides ([`apply_method_settings`]); an error names
+    /// the start, `preset paper-bfsm: …`.
+    pub fn plan_with<'a>(
+        self,
+        settings: impl IntoIterator<Item = (&'a str, &'a str)>,
+    ) -> Result<MethodPlan> {
+        let origin = format!("preset {}", self.name());
+        settings_on(&MethodPlan::Fsm(self.plan()), settings, origin)
+    }
 }
 
 /// The methods `fsm plan --method` makes plans of, for a projector of a given width.
@@ -163,6 +173,32 @@ impl MethodKind {
             }),
         }
     }
+
+    /// [`MethodKind::plan`] with `fsm plan --set` overrides ([`apply_method_settings`]); an
+    /// error names the start, `--method efsm --projector-columns 1024: …`.
+    pub fn plan_with<'a>(
+        self,
+        columns: u16,
+        block_width: u16,
+        groups: GroupCount,
+        settings: impl IntoIterator<Item = (&'a str, &'a str)>,
+    ) -> Result<MethodPlan> {
+        let origin = format!("--method {} --projector-columns {columns}", self.name());
+        settings_on(&self.plan(columns, block_width, groups), settings, origin)
+    }
+}
+
+/// [`apply_method_settings`] to a new plan, an error named by `origin` (where the plan
+/// started: `fsm plan`'s preset or method), as a file's error is named by its path.
+fn settings_on<'a>(
+    start: &MethodPlan,
+    settings: impl IntoIterator<Item = (&'a str, &'a str)>,
+    origin: String,
+) -> Result<MethodPlan> {
+    apply_method_settings(start, settings).map_err(|source| Error::PlanFile {
+        path: origin.into(),
+        source,
+    })
 }
 
 /// A plan of any method the toolkit knows: FSM's, or one of the baselines the paper compares
@@ -738,10 +774,12 @@ pub fn apply_method_settings<'a>(
     plan_from_tree(tree)
 }
 
-/// Splits `key=value`.
-pub fn split_setting(setting: &str) -> Option<(&str, &str)> {
-    let (k, v) = setting.split_once('=')?;
-    Some((k.trim(), v.trim()))
+/// `fsm plan --set`'s `KEY=VALUE`, split and trimmed (the value is read by
+/// [`apply_method_settings`]); the error says `expected KEY=VALUE`. The command's parser, here
+/// with the settings it feeds.
+pub fn parse_setting(setting: &str) -> Result<(String, String), String> {
+    let (k, v) = setting.split_once('=').ok_or("expected KEY=VALUE")?;
+    Ok((k.trim().to_owned(), v.trim().to_owned()))
 }
 
 fn parse_tree(text: &str, syntax: PlanSyntax) -> Result<Value, PlanFileError> {

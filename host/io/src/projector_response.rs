@@ -275,6 +275,21 @@ pub fn grey_level_fractions(levels: usize, sixteen_bit: bool) -> Result<Vec<f64>
     Ok(codes.iter().map(|&c| c as f64 / max_code as f64).collect())
 }
 
+/// The codes of a grey-level set's captures as fractions of the full code: those of its
+/// `manifest` (`levels.json`) when given, else those [`write_grey_level_set`] makes for
+/// `levels` levels of 8- or 16-bit images ([`grey_level_fractions`]). `fsm calibrate response
+/// --images` takes either; the choice is the set's, so it is made here.
+pub fn capture_fractions(
+    manifest: Option<&Path>,
+    levels: usize,
+    sixteen_bit: bool,
+) -> Result<Vec<f64>> {
+    match manifest {
+        Some(path) => Ok(GreyLevelManifest::read(path)?.fractions()),
+        None => grey_level_fractions(levels, sixteen_bit),
+    }
+}
+
 /// One image of a grey-level set.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -343,6 +358,13 @@ impl GreyLevelManifest {
             self.bit_depth,
             codes.join(", ")
         )
+    }
+
+    /// What `fsm calibrate response --write-patterns` says once the set is in the folder
+    /// `dir`: `wrote 17 grey-level images of … and levels.json to DIR`.
+    pub fn written_to(&self, dir: &Path) -> String {
+        let (what, name) = (self.describe(), GREY_LEVELS_MANIFEST);
+        format!("wrote {what} and {name} to {}", dir.display())
     }
 
     /// The response inputs of the levels, in order.

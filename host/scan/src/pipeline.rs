@@ -9,7 +9,7 @@ use fsm_geometry::{Calibration, Pinhole};
 use fsm_io::capture::Capture;
 use fsm_io::decode::{DecodeOptions, DecodeSummary};
 use fsm_io::image_files::read_tiff_f32;
-use fsm_io::plan_file::MethodPlan;
+use fsm_io::plan_file::{read_method_plan, MethodPlan};
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 
@@ -83,6 +83,54 @@ impl ScanCandidates {
             decode: None,
             seconds: started.elapsed().as_secs_f64(),
         })
+    }
+}
+
+/// What `fsm scan` reads before any work, each checked against the others: the plan, the
+/// calibration of the plan's projector ([`ScanCalibration::read_for`]) and, for a simulated
+/// capture, the truth of the calibrated camera's size ([`Truth::read`]). A bad truth folder
+/// fails before anything is decoded.
+pub struct ScanInputs {
+    /// The plan, of any method.
+    pub plan: MethodPlan,
+    /// The calibration and its file.
+    pub calibration: ScanCalibration,
+    /// The true surface to score the points against, if given.
+    pub truth: Option<Truth>,
+}
+
+impl ScanInputs {
+    /// Reads the plan file `plan`, the calibration file `calibration` and the truth folder
+    /// `truth` (if given), and checks them against one another.
+    pub fn read(plan: &Path, calibration: &Path, truth: Option<&Path>) -> Result<Self> {
+        let plan_path = plan;
+        let plan = read_method_plan(plan_path)?;
+        let calibration = ScanCalibration::read_for(calibration, &plan, plan_path)?;
+        let camera = &calibration.calibration.camera;
+        let truth = truth.map(|dir| Truth::read(dir, camera)).transpose()?;
+        Ok(ScanInputs {
+            plan,
+            calibration,
+            truth,
+        })
+    }
+
+    /// [`scan_into`] `dir` with these inputs.
+    pub fn scan_into(
+        &self,
+        dir: &Path,
+        candidates: &ScanCandidates,
+        params: &SelectionParams,
+    ) -> Result<Scanned> {
+        let (plan, calibration) = (&self.plan, &self.calibration.calibration);
+        scan_into(
+            dir,
+            plan,
+            candidates,
+            calibration,
+            params,
+            self.truth.as_ref(),
+        )
     }
 }
 

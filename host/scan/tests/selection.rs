@@ -230,3 +230,34 @@ fn the_choice_does_not_depend_on_the_number_of_threads() {
         assert_eq!(with(threads), one, "{threads} threads");
     }
 }
+
+/// `fsm scan` reads its plan, calibration and truth before any work, each checked against the
+/// others: the bench calibration (768 projector columns) takes the paper's BFSM plan and
+/// refuses a plan for 1024 columns, naming both files; a missing truth folder is an error.
+#[test]
+fn scan_inputs_are_read_and_checked_together() {
+    use fsm_io::plan_file::{write_method_plan, MethodKind, MethodPlan};
+    use fsm_scan::pipeline::ScanInputs;
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let calibration = root.join("calibration/bench.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let (paper, wide) = (dir.path().join("paper.toml"), dir.path().join("wide.toml"));
+    let paper_plan = MethodPlan::Fsm(fsm_core::ScanPlan::paper_bfsm());
+    write_method_plan(&paper_plan, &paper).unwrap();
+    let wide_plan = MethodKind::Bfsm.plan(1024, 64, fsm_core::GroupCount::One);
+    write_method_plan(&wide_plan, &wide).unwrap();
+
+    let inputs = ScanInputs::read(&paper, &calibration, None).unwrap();
+    assert_eq!(inputs.plan, paper_plan);
+    assert_eq!(inputs.calibration.path, calibration);
+    assert!(inputs.truth.is_none());
+    let e = ScanInputs::read(&wide, &calibration, None).err().unwrap();
+    let e = e.to_string();
+    assert!(e.contains("bench.toml") && e.contains("wide.toml"), "{e}");
+    assert!(e.contains("768 columns") && e.contains("1024"), "{e}");
+    let no_truth = dir.path().join("truth");
+    let e = ScanInputs::read(&paper, &calibration, Some(&no_truth))
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("depth.tiff"), "{e}");
+}

@@ -35,6 +35,27 @@ use crate::{
     Capture, LightTransport, PixelTruth, Scene, Sensor, SurfaceClass, System, TransportSettings,
 };
 
+/// The scenes [`run`] scans, in order: the mirror, the mirror covered (the reference), the
+/// sphere with its mirror, the glossy groove.
+pub const SCENES: [&str; 4] = [
+    "plane_mirror",
+    "plane_mirror_covered",
+    "sphere_mirror",
+    "vgroove_glossy",
+];
+
+/// What `fsm demo` says as it starts [`run`] on `system`: `simulating plane_mirror, …,
+/// sphere_mirror and vgroove_glossy (320x240 camera)…`. Made here, from [`SCENES`], so that
+/// the list cannot drift from what is run.
+pub fn announcement(system: &System) -> String {
+    let (last, rest) = SCENES.split_last().expect("scenes");
+    let (w, h) = (system.width(), system.height());
+    format!(
+        "simulating {} and {last} ({w}x{h} camera)…",
+        rest.join(", ")
+    )
+}
+
 /// Output points more than this far from the true surface are wrong, mm.
 pub const WRONG_BEYOND_MM: f64 = 1.0;
 
@@ -278,12 +299,10 @@ pub fn run(system: &System, seed: u64, out: &Path, progress: impl Fn(&str)) -> R
             .map(Arc::new)
             .map_err(Error::from)
     };
-    let scenes = [
-        ("plane_mirror", transport("plane_mirror")?),
-        ("plane_mirror_covered", transport("plane_mirror_covered")?),
-    ];
-    let sphere = transport("sphere_mirror")?;
-    let glossy = transport("vgroove_glossy")?;
+    let [mirror, covered, sphere, glossy] = SCENES;
+    let scenes = [(mirror, transport(mirror)?), (covered, transport(covered)?)];
+    let sphere = transport(sphere)?;
+    let glossy = transport(glossy)?;
     let plans = Plans::paper();
     let params = SelectionParams::for_calibration(&system.calibration);
     let mut truth_pixels: Vec<PixelTruth> = Vec::new();
@@ -493,6 +512,16 @@ pub fn markdown(report: &Report) -> String {
 /// no external resources) whose pictures are relative links into the output folder.
 pub fn html(report: &Report) -> String {
     document(report).html()
+}
+
+/// Where [`write_reports`] put the report in the folder `out`, as `fsm demo` ends: `report in
+/// OUT/report.html (and report.md, report.json beside it)`.
+pub fn reports_written(out: &Path) -> String {
+    let html = out.join("report.html");
+    format!(
+        "report in {} (and report.md, report.json beside it)",
+        html.display()
+    )
 }
 
 /// Writes the report into `dir` three ways: `report.json` (for programs), `report.md` and

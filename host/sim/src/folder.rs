@@ -7,6 +7,7 @@
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
+use std::time::Instant;
 
 use fsm_calibrate::board::Checkerboard;
 use fsm_core::ScanPlan;
@@ -157,15 +158,16 @@ impl SimulationRequest {
 
 impl Simulation {
     /// Renders the simulation into `dir` (which exists): a scene's folder ([`write_scene`]) or
-    /// the board's pose folders ([`write_board_poses`], `done(pose, seed)` called after each
-    /// pose). The rows rendered are reported to `progress`.
+    /// the board's pose folders ([`write_board_poses`]). The rows rendered are reported to
+    /// `progress`, and each board pose written to `done` as the line `fsm simulate` prints:
+    /// `pose-01: yaw 15 … mm, seed 1 (2.4 s)`, the seconds since the start of the write.
     pub fn write(
         &self,
         dir: &Path,
         progress: &Progress,
-        done: impl FnMut(&BoardPoseFolder, u64),
+        mut done: impl FnMut(String),
     ) -> Result<Simulated> {
-        let rendering = &self.rendering;
+        let (rendering, t0) = (&self.rendering, Instant::now());
         Ok(match &self.subject {
             Subject::Scene {
                 name,
@@ -181,7 +183,11 @@ impl Simulation {
                 }
             }
             Subject::Boards { board, plan, poses } => {
-                write_board_poses(dir, plan, rendering, board, poses, progress, done)?;
+                let seconds = || t0.elapsed().as_secs_f64();
+                let pose_done = |pose: &BoardPoseFolder, seed: u64| {
+                    done(format!("{pose}, seed {seed} ({:.1} s)", seconds()))
+                };
+                write_board_poses(dir, plan, rendering, board, poses, progress, pose_done)?;
                 let (w, h) = (rendering.system.width(), rendering.system.height());
                 let (grid, n) = (&board.grid, poses.len());
                 Simulated {

@@ -7,3 +7,4 @@ mod corners;
 mod dense;
 mod end_to_end;
 mod math;
+mod outputs;

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use fsm_io::outputs::StagedFile;
 use fsm_io::{Error, Result};
-use fsm_protocol::client::{self, Client};
+use fsm_protocol::client::{Device, DeviceError};
 use fsm_protocol::RowOutput;
 
 /// Upload a scan plan to a camera; it answers with the plan's fingerprint.
@@ -37,13 +37,15 @@ pub struct DeviceArgs {
 }
 
 impl DeviceArgs {
-    fn timeout(&self) -> Duration {
-        Duration::from_secs(self.timeout)
+    /// The camera these options name.
+    fn device(&self) -> Device {
+        Device::new(&self.device, Duration::from_secs(self.timeout))
     }
+}
 
-    fn error(&self) -> impl Fn(client::ClientError) -> Error + '_ {
-        move |e| Error::Usage(format!("{}: {e}", self.device))
-    }
+/// A failed conversation, which names the camera, as the host's error.
+fn usage(e: DeviceError) -> Error {
+    Error::Usage(e.to_string())
 }
 
 /// `fsm camera`'s subcommands.
@@ -73,10 +75,9 @@ pub enum CameraCommand {
 }
 
 pub fn upload(args: UploadArgs) -> Result<()> {
-    let (plan, link) = (fsm_io::plan_file::read_plan(&args.plan)?, &args.link);
-    let (fingerprint, info) =
-        client::upload(&link.device, &plan, link.timeout()).map_err(link.error())?;
-    let (device, path) = (&link.device, args.plan.display());
+    let plan = fsm_io::plan_file::read_plan(&args.plan)?;
+    let (fingerprint, info) = args.link.device().upload(&plan).map_err(usage)?;
+    let (device, path) = (&args.link.device, args.plan.display());
     eprintln!("{device}: plan {path} accepted (fingerprint {fingerprint:016x}); {info:#}");
     Ok(())
 }
@@ -84,39 +85,22 @@ pub fn upload(args: UploadArgs) -> Result<()> {
 pub fn camera(command: CameraCommand) -> Result<()> {
     match command {
         CameraCommand::Info { link } => {
-            let info = Client::connect(&link.device, link.timeout())
-                .and_then(|mut c| c.hello())
-                .map_err(link.error())?;
-            sayln!("{info}");
+            sayln!("{}", link.device().info().map_err(usage)?);
             Ok(())
         }
         CameraCommand::Scan { to, dump, out, raw } => {
-            let (scan_plan, link) = (fsm_io::plan_file::read_plan(&to.plan)?, &to.link);
+            let scan_plan = fsm_io::plan_file::read_plan(&to.plan)?;
             let output = if raw {
                 RowOutput::Raw
             } else {
                 RowOutput::Candidates
             };
             let mut file = StagedFile::create(&out)?;
-            let summary = client::scan_dump_file(
-                &link.device,
-                &scan_plan,
-                &dump,
-                output,
-                file.writer(),
-                link.timeout(),
-            )
-            .map_err(link.error())?;
+            let device = to.link.device();
+            let scan = device.scan_dump_file(&scan_plan, &dump, output, file.writer());
+            let summary = scan.map_err(usage)?;
             file.commit()?;
-            eprintln!(
-                "{}: {} rows of {} scanned (plan {:016x}), {} bytes -> {}",
-                link.device,
-                summary.rows,
-                dump.display(),
-                summary.fingerprint,
-                summary.bytes,
-                out.display()
-            );
+            eprintln!("{}", summary.report(&device, &dump, &out));
             Ok(())
         }
     }

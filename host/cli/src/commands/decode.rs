@@ -1,7 +1,5 @@
 //! `fsm decode`: every candidate of every pixel, from a stack or a dump.
 
-use fsm_io::candidate_file::CANDIDATE_FILE_NAME;
-use fsm_io::column_map::{COLUMN_PREVIEW_NAME, COLUMN_TIFF_NAME};
 use fsm_io::decode;
 use fsm_io::progress::Progress;
 use fsm_io::Result;
@@ -48,9 +46,6 @@ pub fn run(args: Args) -> Result<()> {
         &Progress::stderr(),
     )?;
     eprintln!("{}", summary.report(&capture.describe()));
-    eprintln!(
-        "  wrote {}/{{{CANDIDATE_FILE_NAME}, {COLUMN_TIFF_NAME}, {COLUMN_PREVIEW_NAME}}}",
-        out.display()
-    );
+    eprintln!("  {}", decode::files_written(out));
     Ok(())
 }

@@ -36,19 +36,12 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let staged = args.output.stage()?;
     let system = args.bench.system();
-    eprintln!(
-        "fsm demo: simulating plane_mirror, plane_mirror_covered, sphere_mirror and vgroove_glossy ({}x{} camera)…",
-        system.width(),
-        system.height()
-    );
+    eprintln!("fsm demo: {}", comparison::announcement(&system));
     let report = comparison::run(&system, args.bench.seed, staged.path(), |line| {
         eprintln!("  {line}")
     })?;
     comparison::write_reports(staged.path(), &report)?;
     let out = staged.commit()?;
-    eprintln!(
-        "fsm demo: report in {} (and report.md, report.json beside it)",
-        out.join("report.html").display()
-    );
+    eprintln!("fsm demo: {}", comparison::reports_written(&out));
     Ok(())
 }

@@ -37,7 +37,7 @@ pub struct Args {
     #[command(flatten)]
     bit_depth: BitDepth,
     /// Plot one pixel (camera coordinates, 0-based).
-    #[arg(long, value_name = "X,Y", value_parser = super::parse_pixel, conflicts_with = "row", required_unless_present = "row")]
+    #[arg(long, value_name = "X,Y", value_parser = fsm_io::image_files::parse_pixel, conflicts_with = "row", required_unless_present = "row")]
     pixel: Option<(u32, u32)>,
     /// Map one camera row (0-based).
     #[arg(long, value_name = "Y")]

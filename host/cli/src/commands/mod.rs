@@ -16,9 +16,10 @@ use std::path::{Path, PathBuf};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use fsm_io::capture::{BadRows, Capture};
 use fsm_io::decode::DecodeOptions;
-use fsm_io::outputs::{check_file_target, StagedDir};
+use fsm_io::image_files::parse_size;
+use fsm_io::outputs::{check_file_target, check_file_target_not, StagedDir};
 use fsm_io::plan_file::MethodPlan;
-use fsm_io::{Error, Result};
+use fsm_io::Result;
 use fsm_sim::System;
 
 /// The plan file of a command that takes any method (`fsm patterns`, `convert`, `decode`,
@@ -173,15 +174,11 @@ impl OutFile {
         Ok(&self.out)
     }
 
-    /// [`OutFile::check`], and never `input`, whatever --force says: `--out OUT is {why}`.
+    /// [`OutFile::check`], and never `input`, whatever --force says: `--out OUT is {why}`
+    /// (`fsm_io::outputs::check_file_target_not`).
     pub fn check_not(&self, input: &Path, why: &str) -> Result<&Path> {
-        match (input.canonicalize(), self.out.canonicalize()) {
-            (Ok(a), Ok(b)) if a == b => Err(Error::Usage(format!(
-                "--out {} is {why}",
-                self.out.display()
-            ))),
-            _ => self.check(),
-        }
+        check_file_target_not(&self.out, input, self.force, why)?;
+        Ok(&self.out)
     }
 }
 
@@ -189,7 +186,7 @@ impl OutFile {
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
     /// Camera size WxH (same field of view; the footprint shrinks as it grows).
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = size::<8>)]
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = |s: &str| parse_size(s, 8))]
     pub camera: (u32, u32),
     /// Noise seed.
     #[arg(long, default_value_t = 1)]
@@ -216,39 +213,4 @@ where
             .expect("listed")
             .0
     })
-}
-
-/// `WxH`, both at least `MIN`.
-pub fn size<const MIN: u32>(s: &str) -> std::result::Result<(u32, u32), String> {
-    pair(
-        s,
-        'x',
-        "WxH, e.g. 1280x1024",
-        &format!("a size of {MIN} or more pixels"),
-        MIN,
-    )
-}
-
-/// `X,Y` pixel coordinates.
-pub fn parse_pixel(s: &str) -> std::result::Result<(u32, u32), String> {
-    pair(s, ',', "X,Y, e.g. 640,480", "a pixel coordinate", 0)
-}
-
-/// Two whole numbers of at least `min` separated by `sep`; the errors say `expected {form}`
-/// or that a number is not `{what}`.
-fn pair(
-    s: &str,
-    sep: char,
-    form: &str,
-    what: &str,
-    min: u32,
-) -> std::result::Result<(u32, u32), String> {
-    let (a, b) = s
-        .split_once(sep)
-        .ok_or_else(|| format!("`{s}`: expected {form}"))?;
-    let parse = |v: &str| {
-        (v.trim().parse::<u32>().ok().filter(|&v| v >= min))
-            .ok_or_else(|| format!("`{s}`: `{v}` is not {what}"))
-    };
-    Ok((parse(a)?, parse(b)?))
 }

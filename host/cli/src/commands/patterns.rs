@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use fsm_io::image_files::ImageFormat;
 use fsm_io::patterns::{self, PatternOptions};
 use fsm_io::progress::Progress;
-use fsm_io::projector_response::ProjectorResponse;
 use fsm_io::Result;
 
 /// Write the projector images of the plan's whole sequence, in projection order.
@@ -48,12 +47,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let plan = args.plan.read()?;
-    let response_file = args.gamma.as_deref().or(args.calibration.as_deref());
-    let response = match (&args.gamma, &args.calibration) {
-        (Some(path), _) => Some(ProjectorResponse::read(path)?),
-        (None, Some(path)) => Some(fsm_calibrate::response::response_from_calibration(path)?),
-        (None, None) => None,
-    };
+    let (gamma, calibration) = (args.gamma.as_deref(), args.calibration.as_deref());
+    let response = fsm_calibrate::response::read_response(gamma, calibration)?;
     let options = PatternOptions {
         width: args.width,
         height: args.height,
@@ -65,12 +60,11 @@ pub fn run(args: Args) -> Result<()> {
     let manifest = patterns::write_method_pattern_set(
         &plan,
         &options,
-        response_file,
+        gamma.or(calibration),
         out,
         args.output.force,
         &Progress::stderr(),
     )?;
-    let (what, name) = (manifest.describe(), patterns::MANIFEST_NAME);
-    eprintln!("wrote {what} and {name} to {}", out.display());
+    eprintln!("{}", manifest.written_to(out));
     Ok(())
 }

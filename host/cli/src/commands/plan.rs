@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use fsm_core::GroupCount;
 use fsm_io::plan_file::{self, MethodKind, MethodPlan, PlanSyntax, Preset};
-use fsm_io::{Error, Result};
+use fsm_io::Result;
 
 use super::named;
 
@@ -54,7 +54,7 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value = "2", value_parser = named([(GroupCount::One, "1"), (GroupCount::Two, "2")]))]
     groups: GroupCount,
     /// Override a field: KEY=VALUE (repeatable); the result is validated.
-    #[arg(long = "set", value_name = "KEY=VALUE", conflicts_with = "check", value_parser = setting)]
+    #[arg(long = "set", value_name = "KEY=VALUE", conflicts_with = "check", value_parser = plan_file::parse_setting)]
     settings: Vec<(String, String)>,
     /// Write the plan here (.toml or .json); without it the plan is printed.
     #[arg(long, value_name = "FILE", conflicts_with = "check")]
@@ -74,16 +74,9 @@ pub struct Args {
     format: PlanSyntax,
 }
 
-/// `KEY=VALUE` of `--set`.
-fn setting(s: &str) -> std::result::Result<(String, String), String> {
-    let (key, value) = plan_file::split_setting(s).ok_or("expected KEY=VALUE")?;
-    Ok((key.to_owned(), value.to_owned()))
-}
-
 pub fn run(args: Args) -> Result<()> {
-    for path in [&args.out, &args.wire].into_iter().flatten() {
-        fsm_io::outputs::check_file_target(path, args.force)?;
-    }
+    let optional = [args.out.as_deref(), args.wire.as_deref()];
+    fsm_io::outputs::check_file_targets(optional.into_iter().flatten(), args.force)?;
     let plan = match &args.check {
         Some(path) => {
             let plan = plan_file::read_method_plan(path)?;
@@ -102,23 +95,14 @@ pub fn run(args: Args) -> Result<()> {
 
 /// The plan of --preset or --method with the --set overrides, written to --out or printed.
 fn write(args: &Args) -> Result<MethodPlan> {
-    let (start, origin) = match (args.preset, args.method, args.projector_columns) {
-        (Some(preset), ..) => (
-            MethodPlan::Fsm(preset.plan()),
-            format!("preset {}", preset.name()),
-        ),
-        (None, Some(method), Some(columns)) => (
-            method.plan(columns, args.block_width, args.groups),
-            format!("--method {} --projector-columns {columns}", method.name()),
-        ),
+    let settings = args.settings.iter().map(|(k, v)| (k.as_str(), v.as_str()));
+    let plan = match (args.preset, args.method, args.projector_columns) {
+        (Some(preset), ..) => preset.plan_with(settings)?,
+        (None, Some(method), Some(columns)) => {
+            method.plan_with(columns, args.block_width, args.groups, settings)?
+        }
         _ => unreachable!("clap requires --preset, --method with --projector-columns, or --check"),
     };
-    let settings = args.settings.iter().map(|(k, v)| (k.as_str(), v.as_str()));
-    let plan =
-        plan_file::apply_method_settings(&start, settings).map_err(|source| Error::PlanFile {
-            path: origin.into(),
-            source,
-        })?;
     match &args.out {
         Some(out) => {
             plan_file::write_method_plan(&plan, out)?;

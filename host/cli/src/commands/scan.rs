@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use fsm_geometry::Calibration;
 use fsm_io::progress::Progress;
 use fsm_io::Result;
-use fsm_scan::pipeline::{scan_into, ScanCalibration, ScanCandidates, Truth};
+use fsm_scan::pipeline::{ScanCandidates, ScanInputs};
 use fsm_scan::{Paths, SelectionParams};
 
 use super::{CaptureArgs, DecodeArgs, OutDir, PlanFile};
@@ -117,33 +117,23 @@ impl SelectionArgs {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let plan = args.plan.read()?;
-    let calibration = ScanCalibration::read_for(&args.calibration, &plan, &args.plan.plan)?;
-    let camera = &calibration.calibration.camera;
-    // Read before any work: a bad truth folder fails fast.
-    let truth = args.truth.as_deref().map(|dir| Truth::read(dir, camera));
-    let truth = truth.transpose()?;
+    let truth = args.truth.as_deref();
+    let inputs = ScanInputs::read(&args.plan.plan, &args.calibration, truth)?;
+    let (plan, calibration) = (inputs.plan, &inputs.calibration);
     let staged = args.output.stage()?;
     let candidates = match &args.candidates {
         Some(path) => {
             let bits = args.capture.bit_depth.bit_depth;
-            ScanCandidates::read(&plan, path, bits, &calibration)?
+            ScanCandidates::read(&plan, path, bits, calibration)?
         }
         None => {
             let capture = args.capture.open(plan)?;
             let options = args.decode.options();
-            ScanCandidates::decode(plan, &capture, &calibration, &options, &Progress::stderr())?
+            ScanCandidates::decode(plan, &capture, calibration, &options, &Progress::stderr())?
         }
     };
     let params = args.selection.params(&calibration.calibration);
-    let scanned = scan_into(
-        staged.path(),
-        &plan,
-        &candidates,
-        &calibration.calibration,
-        &params,
-        truth.as_ref(),
-    )?;
+    let scanned = inputs.scan_into(staged.path(), &candidates, &params)?;
     let out = staged.commit()?;
     eprintln!("{}", scanned.report(&candidates, &out));
     Ok(())

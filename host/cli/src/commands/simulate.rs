@@ -7,9 +7,7 @@ use std::path::PathBuf;
 use fsm_io::plan_file::Preset;
 use fsm_io::progress::Progress;
 use fsm_io::Result;
-use fsm_sim::folder::{
-    scene_names, BoardPlacement, BoardPoseFolder, Rendering, SimulationRequest, SPREAD,
-};
+use fsm_sim::folder::{scene_names, BoardPlacement, Rendering, SimulationRequest, SPREAD};
 
 /// Simulate a scan: the camera's captures of a scene under a plan's patterns.
 ///
@@ -106,10 +104,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     .resolve()?;
     let staged = args.output.stage()?;
-    let t0 = std::time::Instant::now();
-    let done = |pose: &BoardPoseFolder, seed| {
-        eprintln!("{pose}, seed {seed} ({:.1} s)", t0.elapsed().as_secs_f64())
-    };
+    let done = |line| eprintln!("{line}");
     let simulated = simulation.write(staged.path(), &Progress::stderr(), done)?;
     let out = staged.commit()?;
     eprintln!("{}", simulated.message(&out));

@@ -56,7 +56,7 @@ use crate::error::ModelError;
 
 pub use document::{Document, Matrix, Node};
 pub use read::{from_bytes, from_text, import_document, read, ImportOptions, Imported};
-pub use write::{format_double, to_text, write};
+pub use write::{export_report, format_double, to_text, write};
 
 /// Deepest nesting of maps and sequences a file may have.
 pub const MAX_DEPTH: usize = 64;

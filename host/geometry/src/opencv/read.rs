@@ -40,6 +40,22 @@ pub struct Imported {
     pub notes: Vec<String>,
 }
 
+impl Imported {
+    /// What `fsm calibrate import` says once the calibration read from `tool`'s file `input`
+    /// is written to `out`: each note, then `wrote OUT: TOOL calibration from INPUT; SUMMARY`
+    /// ([`Calibration::summary`]). Made here, with the notes it follows.
+    pub fn report(&self, tool: Tool, input: &Path, out: &Path) -> String {
+        let mut lines = self.notes.clone();
+        lines.push(format!(
+            "wrote {}: {tool} calibration from {}; {}",
+            out.display(),
+            input.display(),
+            self.calibration.summary()
+        ));
+        lines.join("\n")
+    }
+}
+
 /// A 3×3 camera matrix without skew: `[fx 0 cx; 0 fy cy; 0 0 1]`.
 fn intrinsics_of(key: &str, m: &Matrix) -> Result<Intrinsics, OpenCvErrorKind> {
     if (m.rows, m.cols) != (3, 3) {

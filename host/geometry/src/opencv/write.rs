@@ -273,6 +273,25 @@ pub fn to_text(calibration: &Calibration, tool: Tool, syntax: Syntax, unit: Leng
     w.finish()
 }
 
+/// What `fsm calibrate export` says once `tool`'s file `out` is written from our calibration
+/// file `source`: a note when the tool cannot load the syntax chosen (SLStudio loads only
+/// XML), then `wrote OUT: TOOL calibration (translation in UNIT) from SOURCE`. Made here, where
+/// the tools' syntaxes are known.
+pub fn export_report(tool: Tool, unit: LengthUnit, out: &Path, source: &Path) -> String {
+    let note = match Syntax::of_path(out) {
+        Some(Syntax::Yaml) if tool == Tool::SlStudio => {
+            "note: SLStudio loads only .xml calibration files\n"
+        }
+        _ => "",
+    };
+    format!(
+        "{note}wrote {}: {tool} calibration (translation in {}) from {}",
+        out.display(),
+        unit.name(),
+        source.display()
+    )
+}
+
 /// Writes `tool`'s file whole or not at all (the workspace's one atomic writer,
 /// [`fsm_io::outputs::write_file`]); the syntax follows the extension (`.yml`, `.yaml`, `.xml`).
 pub fn write(

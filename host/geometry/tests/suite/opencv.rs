@@ -1189,3 +1189,42 @@ proptest! {
         import_anything(&bytes);
     }
 }
+
+#[test]
+fn import_and_export_say_what_they_wrote() {
+    let (r, t) = hand_pose();
+    let options = ImportOptions {
+        near_mm: Some(250.0),
+        far_mm: Some(900.0),
+        ..ImportOptions::default()
+    };
+    let text = hand_written(Tool::SlStudio, &r, &t);
+    let sl = opencv::from_text(&text, "sl.xml", Tool::SlStudio, &options).unwrap();
+    assert!(!sl.notes.is_empty());
+    let report = sl.report(Tool::SlStudio, Path::new("sl.xml"), Path::new("cal.toml"));
+    let lines: Vec<&str> = report.lines().collect();
+    // The notes first, one per line, then what was written.
+    assert_eq!(
+        lines[..sl.notes.len()],
+        sl.notes.iter().map(String::as_str).collect::<Vec<_>>()
+    );
+    let summary = sl.calibration.summary();
+    let wrote = format!("wrote cal.toml: SLStudio calibration from sl.xml; {summary}");
+    assert_eq!(lines[sl.notes.len()..], [wrote.as_str()]);
+
+    let (yml, xml) = (Path::new("out.yml"), Path::new("out.xml"));
+    let source = Path::new("cal.toml");
+    let from = "calibration (translation in cm) from cal.toml";
+    assert_eq!(
+        opencv::export_report(Tool::SlStudio, LengthUnit::Cm, yml, source),
+        format!("note: SLStudio loads only .xml calibration files\nwrote out.yml: SLStudio {from}")
+    );
+    assert_eq!(
+        opencv::export_report(Tool::SlStudio, LengthUnit::Cm, xml, source),
+        format!("wrote out.xml: SLStudio {from}")
+    );
+    assert_eq!(
+        opencv::export_report(Tool::Scan3dCapture, LengthUnit::Cm, yml, source),
+        format!("wrote out.yml: scan3d-capture {from}")
+    );
+}

@@ -5,6 +5,7 @@ mod support;
 
 mod candidate_file;
 mod dump;
+mod outputs;
 mod parsers;
 mod plan_file;
 mod round_trip;

@@ -127,3 +127,35 @@ fn a_grey_level_manifest_reads_back_the_fractions_it_was_written_with() {
     }
     assert_eq!(back, manifest);
 }
+
+#[test]
+fn sizes_and_pixels_are_two_whole_numbers() {
+    use fsm_io::image_files::{parse_pixel, parse_size};
+    assert_eq!(parse_size("1280x1024", 1), Ok((1280, 1024)));
+    assert_eq!(parse_size(" 8 x 8 ", 8), Ok((8, 8)));
+    assert_eq!(
+        parse_size("7x8", 8),
+        Err("`7x8`: `7` is not a size of 8 or more pixels".to_owned())
+    );
+    assert_eq!(
+        parse_size("1280,1024", 1),
+        Err("`1280,1024`: expected WxH, e.g. 1280x1024".to_owned())
+    );
+    assert_eq!(parse_pixel("0,479"), Ok((0, 479)));
+    assert_eq!(
+        parse_pixel("3,-1"),
+        Err("`3,-1`: `-1` is not a pixel coordinate".to_owned())
+    );
+    assert_eq!(
+        parse_pixel("3x4"),
+        Err("`3x4`: expected X,Y, e.g. 640,480".to_owned())
+    );
+}
+
+proptest! {
+    #[test]
+    fn size_and_pixel_parsers_never_panic(s in ".{0,24}") {
+        let _ = fsm_io::image_files::parse_size(&s, 8);
+        let _ = fsm_io::image_files::parse_pixel(&s);
+    }
+}

@@ -169,3 +169,44 @@ fn the_paper_presets_parse_back_from_both_syntaxes() {
         }
     }
 }
+
+#[test]
+fn new_plans_take_overrides_and_name_their_start_in_errors() {
+    use fsm_io::plan_file::{apply_method_settings, MethodKind, MethodPlan, Preset};
+    let set = [("decoding.noise_factor", "5")];
+    let preset = Preset::PaperEfsm2.plan_with(set).unwrap();
+    let expected = apply_method_settings(&MethodPlan::Fsm(Preset::PaperEfsm2.plan()), set);
+    assert_eq!(preset, expected.unwrap());
+    let method = MethodKind::Efsm
+        .plan_with(1024, 32, GroupCount::One, set)
+        .unwrap();
+    let start = MethodKind::Efsm.plan(1024, 32, GroupCount::One);
+    assert_eq!(method, apply_method_settings(&start, set).unwrap());
+
+    let e = Preset::PaperBfsm
+        .plan_with([("band.cuont", "3")])
+        .unwrap_err();
+    let e = e.to_string();
+    assert!(e.starts_with("preset paper-bfsm: --set band.cuont"), "{e}");
+    let e = MethodKind::LineScan.plan_with(1024, 64, GroupCount::Two, [("nope", "1")]);
+    let e = e.unwrap_err().to_string();
+    assert!(
+        e.starts_with("--method line-scan --projector-columns 1024: --set nope"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_setting_is_key_equals_value() {
+    use fsm_io::plan_file::parse_setting;
+    let pair = |k: &str, v: &str| (k.to_owned(), v.to_owned());
+    assert_eq!(
+        parse_setting(" band.count = 512 "),
+        Ok(pair("band.count", "512"))
+    );
+    assert_eq!(parse_setting("a=b=c"), Ok(pair("a", "b=c")));
+    assert_eq!(
+        parse_setting("band.count"),
+        Err("expected KEY=VALUE".to_owned())
+    );
+}

@@ -239,3 +239,21 @@ fn the_check_refuses_what_a_browser_would_read_otherwise() {
         assert!(error.contains(says), "{from:?} as {to:?}: {error}");
     }
 }
+
+#[test]
+fn the_demo_announces_the_scenes_it_runs() {
+    let system = fsm_sim::System::bench_with_camera(64, 48);
+    assert_eq!(
+        fsm_sim::comparison::announcement(&system),
+        "simulating plane_mirror, plane_mirror_covered, sphere_mirror and vgroove_glossy (64x48 camera)…"
+    );
+}
+
+#[test]
+fn the_demo_ends_with_where_its_report_is() {
+    let line = fsm_sim::comparison::reports_written(std::path::Path::new("fsm-demo"));
+    assert_eq!(
+        line,
+        "report in fsm-demo/report.html (and report.md, report.json beside it)"
+    );
+}

@@ -521,3 +521,37 @@ fn the_truth_folder_reads_back_for_the_scan() {
         "{e}"
     );
 }
+
+/// `fsm simulate --scene checkerboard` prints a line per board pose written: the pose, its
+/// noise seed and the seconds since the start.
+#[test]
+fn a_board_simulation_reports_each_pose() {
+    use fsm_sim::folder::{Rendering, SimulationRequest, CHECKERBOARD};
+    let request = SimulationRequest {
+        scene: CHECKERBOARD.into(),
+        plan: None,
+        preset: None,
+        rendering: Rendering {
+            system: System::bench_with_camera(64, 48),
+            seed: 7,
+            supersampling: 1,
+        },
+        images: true,
+        board: None,
+        board_pose: Some("25,-15,10,520".parse().unwrap()),
+        board_poses: None,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut lines = Vec::new();
+    let simulation = request.resolve().unwrap();
+    let done = |line| lines.push(line);
+    simulation
+        .write(dir.path(), &Progress::hidden(), done)
+        .unwrap();
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    let pose = "pose: yaw 25 pitch -15 roll 10 deg, centre (0, 0, 520) mm, seed 7 (";
+    assert!(
+        lines[0].starts_with(pose) && lines[0].ends_with(" s)"),
+        "{lines:?}"
+    );
+}

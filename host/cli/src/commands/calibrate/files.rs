@@ -2,11 +2,12 @@
 
 use std::path::PathBuf;
 
-use fsm_geometry::opencv::{self, ImportOptions, LengthUnit, Syntax, Tool};
+use fsm_geometry::opencv::{self, ImportOptions, LengthUnit, Tool};
 use fsm_geometry::Calibration;
+use fsm_io::image_files::parse_size;
 use fsm_io::Result;
 
-use crate::commands::{named, size, OutFile};
+use crate::commands::{named, OutFile};
 
 const IMPORT_HELP: &str = "\
 The file is YAML or XML, recognised from its text. Its R, T (camera to projector, as all
@@ -60,11 +61,11 @@ pub struct ImportArgs {
     output: OutFile,
     /// Camera image size, pixels (required unless the file has it: SLStudio's
     /// frameWidth/frameHeight, procam's img_shape).
-    #[arg(long, value_name = "WxH", value_parser = size::<1>)]
+    #[arg(long, value_name = "WxH", value_parser = |s: &str| parse_size(s, 1))]
     camera_size: Option<(u32, u32)>,
     /// Projector size, columns x rows (required unless the file has it: SLStudio's
     /// screenResX/screenResY). The columns are the plan's projector columns.
-    #[arg(long, value_name = "COLSxROWS", value_parser = size::<1>)]
+    #[arg(long, value_name = "COLSxROWS", value_parser = |s: &str| parse_size(s, 1))]
     projector_size: Option<(u32, u32)>,
     /// Nearest depth of the measurement volume, mm along the camera's z axis.
     #[arg(long, value_name = "MM")]
@@ -100,16 +101,7 @@ pub fn import(args: ImportArgs) -> Result<()> {
     };
     let imported = opencv::read(&args.input, args.tool.format, &options)?;
     imported.calibration.write(out)?;
-    for note in &imported.notes {
-        eprintln!("{note}");
-    }
-    eprintln!(
-        "wrote {}: {} calibration from {}; {}",
-        out.display(),
-        args.tool.format,
-        args.input.display(),
-        imported.calibration.summary()
-    );
+    eprintln!("{}", imported.report(args.tool.format, &args.input, out));
     Ok(())
 }
 
@@ -120,15 +112,9 @@ pub fn export(args: ExportArgs) -> Result<()> {
     let calibration = Calibration::read(&args.calibration)?;
     let (tool, unit) = (args.tool.format, args.tool.unit);
     opencv::write(&calibration, tool, out, unit)?;
-    if tool == Tool::SlStudio && Syntax::of_path(out) == Some(Syntax::Yaml) {
-        eprintln!("note: SLStudio loads only .xml calibration files");
-    }
     eprintln!(
-        "wrote {}: {} calibration (translation in {}) from {}",
-        out.display(),
-        tool,
-        unit.name(),
-        args.calibration.display()
+        "{}",
+        opencv::export_report(tool, unit, out, &args.calibration)
     );
     Ok(())
 }

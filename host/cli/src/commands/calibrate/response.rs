@@ -2,9 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
-use fsm_calibrate::response::{self, ResponseModel, ResponseReport};
+use fsm_calibrate::response::{self, ResponseModel, ResponseOutputs};
 use fsm_io::image_files::ImageFormat;
-use fsm_io::projector_response::{self, GreyLevelManifest};
+use fsm_io::projector_response;
 use fsm_io::Result;
 
 use crate::commands::BitDepth;
@@ -82,37 +82,23 @@ pub struct Args {
 
 /// Runs `fsm calibrate response`.
 pub fn run(args: Args) -> Result<()> {
-    if let Some(out) = &args.out {
-        fsm_io::outputs::check_file_target(out, args.force)?;
-    }
+    fsm_io::outputs::check_file_targets(args.out.as_deref(), args.force)?;
     if let Some(out) = &args.write_patterns {
         return write_patterns(&args, out);
     }
     let images = args.images.as_deref().expect("clap requires a mode");
-    let codes = match &args.manifest {
-        Some(path) => GreyLevelManifest::read(path)?.fractions(),
-        None => projector_response::grey_level_fractions(args.levels, args.sixteen_bit)?,
-    };
+    let (manifest, levels) = (args.manifest.as_deref(), args.levels);
+    let codes = projector_response::capture_fractions(manifest, levels, args.sixteen_bit)?;
     let estimate =
         projector_response::estimate_from_folder(images, &codes, args.bit_depth.bit_depth)?;
     let chosen = response::choose(&estimate, args.model);
     say!("{}", estimate.table(images));
-    let what = &chosen.what;
-    if let Some(out) = &args.out {
-        let comment = response::file_comment(&estimate, images, codes.len());
-        chosen.response.write(out, &comment)?;
-        sayln!("wrote {} ({what})", out.display());
-    }
-    if let Some(path) = &args.calibration {
-        response::store_in_calibration(path, &chosen.response)?;
-        sayln!("stored {what} in {}", path.display());
-    }
-    if let Some(path) = &args.json {
-        let (response_file, calibration) = (args.out.as_deref(), args.calibration.as_deref());
-        ResponseReport::new(images, &estimate, &chosen, response_file, calibration).write(path)?;
-        sayln!("wrote {}", path.display());
-    }
-    Ok(())
+    let outputs = ResponseOutputs {
+        file: args.out.as_deref(),
+        calibration: args.calibration.as_deref(),
+        json: args.json.as_deref(),
+    };
+    outputs.write(images, &estimate, &chosen, |line| sayln!("{line}"))
 }
 
 fn write_patterns(args: &Args, out: &Path) -> Result<()> {
@@ -130,11 +116,6 @@ fn write_patterns(args: &Args, out: &Path) -> Result<()> {
         format,
         args.force,
     )?;
-    eprintln!(
-        "wrote {} and {} to {}",
-        manifest.describe(),
-        projector_response::GREY_LEVELS_MANIFEST,
-        out.display()
-    );
+    eprintln!("{}", manifest.written_to(out));
     Ok(())
 }

@@ -5,10 +5,10 @@ use std::path::PathBuf;
 
 use fsm_calibrate::board::Checkerboard;
 use fsm_calibrate::pose_folder::observe_poses;
-use fsm_calibrate::report::write_residual_pictures;
+use fsm_calibrate::report::TargetOutputs;
 use fsm_calibrate::{calibrate, CalibrationSettings};
 use fsm_geometry::MeasurementVolume;
-use fsm_io::outputs::{check_file_target, write_file};
+use fsm_io::outputs::check_file_targets;
 use fsm_io::{Error, Result};
 
 use crate::commands::{BitDepth, DecodeArgs, OutFile};
@@ -129,43 +129,23 @@ impl SettingsArgs {
 /// Runs `fsm calibrate target`.
 pub fn run(args: Args) -> Result<()> {
     let out = args.output.check()?;
-    if let Some(path) = &args.report {
-        check_file_target(path, args.output.force)?;
-    }
+    check_file_targets(args.report.as_deref(), args.output.force)?;
     let board = Checkerboard::read(&args.board)?;
     let plan = fsm_io::plan_file::read_plan(&args.plan)?;
-    let poses = observe_poses(
-        &args.poses,
-        &plan,
-        args.bit_depth.bit_depth,
-        &args.decode.options(),
-        &board,
-        |dir, corners, decoded| {
-            eprintln!(
-                "{}: {corners} corners, {:.1}% of pixels decoded",
-                dir.display(),
-                100.0 * decoded
-            )
-        },
-    )?;
-    let (w, h) = (poses.width, poses.height);
+    let (bits, options) = (args.bit_depth.bit_depth, args.decode.options());
+    let poses = observe_poses(&args.poses, &plan, bits, &options, &board, |p| {
+        eprintln!("{p}")
+    })?;
+    let camera = (poses.width, poses.height);
     let settings = args
         .settings
-        .settings((w, h), plan.projector_columns as u32)?;
-    let (calibration, report) = calibrate(&board.corners_mm(), &poses.observations, &settings)
-        .map_err(|e| Error::Usage(format!("calibration failed: {e}")))?;
-
+        .settings(camera, plan.projector_columns as u32)?;
+    let (calibration, report) = calibrate(&board.corners_mm(), &poses.observations, &settings)?;
     say!("{}", report.table());
-    write_file(out, calibration.to_toml().as_bytes())?;
-    eprintln!("wrote {}", out.display());
-    if let Some(path) = &args.report {
-        write_file(path, report.to_json().as_bytes())?;
-        eprintln!("wrote {}", path.display());
-    }
-    if let Some(dir) = &args.residuals {
-        write_residual_pictures(dir, &report, &poses.whites, (w, h))?;
-        let count = report.poses.len();
-        eprintln!("wrote {count} residual pictures to {}", dir.display());
-    }
-    Ok(())
+    let outputs = TargetOutputs {
+        calibration: out,
+        report: args.report.as_deref(),
+        residuals: args.residuals.as_deref(),
+    };
+    outputs.write(&calibration, &report, &poses, |line| eprintln!("{line}"))
 }
