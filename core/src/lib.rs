@@ -1,8 +1,9 @@
 //! # fsm-core: the Frequency Shift Method decoder
 //!
 //! `no_std`, allocation-free decoding of structured-light scans made with the Frequency Shift
-//! Method (Djupkep Dizeu et al., IEEE TIM 2022; conventions in the project's `SPEC.md`). The same
-//! code runs on the camera's ARM core and on the host, and gives bit-identical candidates on both.
+//! Method (Djupkep Dizeu et al., IEEE TIM 2022). The method and its conventions are stated in
+//! the repository's `docs/spec.md`, the "SPEC §n" these docs cite. The same code runs on the
+//! camera's ARM core and on the host, and gives bit-identical candidates on both.
 //!
 //! The pipeline of one pixel, one module per stage:
 //!

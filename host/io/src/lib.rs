@@ -3,7 +3,7 @@
 //! Everything the `fsm` tool does, as a library: plans as files, pattern sets for the
 //! projector, captured stacks and row dumps, parallel decoding into candidate files and
 //! column maps, and pictures of spectra. All FSM math is `fsm_core`'s; this crate only moves
-//! data between files, threads and the core (conventions: the project's `SPEC.md`).
+//! data between files, threads and the core (conventions: `docs/spec.md`).
 //!
 //! | concern | module |
 //! |---|---|
