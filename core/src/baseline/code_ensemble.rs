@@ -236,9 +236,10 @@ pub const fn high_symmetry(w: u8) -> u8 {
 
 /// Builds the ensemble's long-run code from its transition sequence (the bit that changes after
 /// each codeword). The 10-bit cube is the product of two 5-bit cubes, the low bits 0–4 and the
-/// high bits 5–9, and the code changes a low bit and a high bit in turn, as the product
-/// circuits of Goddyn & Gvozdjak do (“Binary Gray codes with long bit runs”, Electronic
-/// Journal of Combinatorics 10, 2003, R27, Lemma 3). Each half's own sequence keeps a bit at
+/// high bits 5–9, and the code changes a low bit and a high bit in turn, the shape a secondary
+/// account gives Goddyn & Gvozdjak's product circuits (“Binary Gray codes with long bit runs”,
+/// Electronic Journal of Combinatorics 10, 2003, R27; we could not read the paper itself, so
+/// the construction and its proof below are ours). Each half's own sequence keeps a bit at
 /// least 4 of its steps, so every bit of the code keeps at least 8 columns. Which 512-step
 /// high walk makes the circuit meet every word once is our own choice, below.
 ///
