@@ -41,8 +41,11 @@
 //!    lights (box footprints of 1–3 columns, blur σ 0.4–1, intensity ramps of ±50%, the noise of
 //!    EFSM cB 64): 21% less scatter than the plain centroid, no bias. Its amplitude is the sum of
 //!    its non-negative light, in sensor DN of fringe modulation (the unit of every search).
-//!    Lights below `min_amplitude_dn` or `relative_floor` of the strongest are dropped; at most
-//!    `max_peaks` are kept, strongest first.
+//!    An isolated light (the only maximum of its run) is then moved to where the profile
+//!    correlates best with a bell of its own width (a centroid re-weighted by a window on the
+//!    light, [`MATCHED_REACH`]): a matched filter, 20–30% less scatter than the floored
+//!    centroid. Lights below `min_amplitude_dn` or `relative_floor` of the strongest are
+//!    dropped; at most `max_peaks` are kept, strongest first.
 
 use heapless::Vec;
 
@@ -223,7 +226,7 @@ pub(crate) fn find_lights<const L: usize>(
         );
     }
     out.unresolved = found.unresolved;
-    keep_strongest(plan, &found.lights, out);
+    keep_strongest(plan, &mut found.lights, out);
 }
 
 /// Groups ascending lit columns into runs of adjacent ones. A run whose feet (the adjacent
@@ -296,16 +299,30 @@ struct Levels {
     floor: f32,
 }
 
+/// A light of a profile, as found: a [`Peak`] without the DFT searches' column weights (the
+/// profile's columns are the weights), which every light found is copied with several times.
+#[derive(Clone, Copy)]
+struct Light {
+    /// Column in the span domain.
+    column: f32,
+    /// The sum of its non-negative light, sensor DN.
+    amplitude: f32,
+    /// Its largest column's light, sensor DN.
+    magnitude: f32,
+    /// The column of its largest light.
+    bin: u16,
+}
+
 /// Lights found so far in a profile.
 struct Found {
     /// More than `MAX_PEAKS` are kept while searching: the weakest go at the end.
-    lights: Vec<Peak, { 2 * MAX_PEAKS }>,
+    lights: Vec<Light, { 2 * MAX_PEAKS }>,
     unresolved: bool,
 }
 
 impl Found {
     /// Adds a light; when the list is full, it replaces the weakest if it is stronger.
-    fn push(&mut self, light: Peak) {
+    fn push(&mut self, light: Light) {
         if let Err(light) = self.lights.push(light) {
             let weakest = (0..self.lights.len()).min_by(|&a, &b| {
                 self.lights[a]
@@ -377,6 +394,7 @@ fn extrema(v: &impl Fn(usize) -> f32, run: &Run, swing: f32, out: &mut Vec<usize
 fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, levels: &Levels, found: &mut Found) {
     let mut ext: Vec<usize, MAX_EXTREMA> = Vec::new();
     extrema(v, run, levels.threshold, &mut ext);
+    let isolated = ext.len() == 1;
     // Merge the two maxima around each shallow minimum, the larger standing for both, until
     // every remaining minimum is deep.
     loop {
@@ -401,7 +419,11 @@ fn lights_of_run(v: &impl Fn(usize) -> f32, run: &Run, levels: &Levels, found: &
     let (first, last) = run.with_margin();
     let tops: Vec<usize, { MAX_EXTREMA / 2 + 1 }> = ext.iter().step_by(2).copied().collect();
     if tops.len() == 1 {
-        found.push(measure(v, levels.floor, (first, last), |_| 1.0, tops[0]));
+        found.push(if isolated {
+            isolated_light(v, levels.floor, (first, last), tops[0])
+        } else {
+            measure(v, levels.floor, (first, last), |_| 1.0, tops[0])
+        });
         return;
     }
     // Lights whose footprints touch: each column between two maxima is shared by those two
@@ -489,7 +511,7 @@ fn measure(
     (first, last): (usize, usize),
     share: impl Fn(usize) -> f32,
     top: usize,
-) -> Peak {
+) -> Light {
     let (mut light, mut sum, mut moment) = (0.0f32, 0.0f32, 0.0f32);
     for j in first..=last {
         let share = share(j);
@@ -499,14 +521,119 @@ fn measure(
         sum += w;
         moment += w * j as f32;
     }
-    Peak {
+    Light {
         column: if sum > 0.0 { moment / sum } else { top as f32 },
         amplitude: light,
         magnitude: v(top),
         bin: top as u16,
-        weights: ColumnWeights::default(),
     }
 }
+
+/// An isolated light, the only maximum of columns `first..=last`, at most
+/// [`MATCHED_MAX_COLUMNS`] of them: [`measure`]d, then its column moved by [`matched`] if it is
+/// at least [`MATCHED_MIN_VARIANCE`] wide. A light over more columns (a surface seen at a
+/// grazing angle) is measured alone.
+fn isolated_light(
+    v: &impl Fn(usize) -> f32,
+    floor: f32,
+    (first, last): (usize, usize),
+    top: usize,
+) -> Light {
+    let n = last + 1 - first;
+    if n > MATCHED_MAX_COLUMNS {
+        return measure(v, floor, (first, last), |_| 1.0, top);
+    }
+    // The columns, read once: both passes read them again.
+    let mut columns = [0.0f32; MATCHED_MAX_COLUMNS];
+    let columns = &mut columns[..n];
+    for (k, x) in columns.iter_mut().enumerate() {
+        *x = v(first + k);
+    }
+    // `measure`'s sums in its order (bit for bit its light and centroid), and the spread of the
+    // weights about the top column. A column as a float is counted (exact below 2²⁴).
+    let (mut light, mut sum, mut moment, mut spread) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+    let (mut at, top_at) = (first as u32 as f32, top as u32 as f32);
+    for &x in columns.iter() {
+        let w = (x - floor).max(0.0);
+        let d = at - top_at;
+        light += x.max(0.0);
+        sum += w;
+        moment += w * at;
+        spread += w * d * d;
+        at += 1.0;
+    }
+    let mut peak = Light {
+        column: top as f32,
+        amplitude: light,
+        magnitude: columns[top - first],
+        bin: top as u16,
+    };
+    if sum > 0.0 {
+        let centroid = moment / sum;
+        let off = centroid - top_at;
+        let variance = spread / sum - off * off;
+        peak.column = if variance >= MATCHED_MIN_VARIANCE {
+            matched(columns, first, centroid, variance)
+        } else {
+            centroid
+        };
+    }
+    peak
+}
+
+/// `centroid`, the floored centroid of an isolated light whose weights have `variance` about
+/// it, moved to the fixed point of a centroid weighted by a biweight window `(1 − u²)²`,
+/// `u = (j − c)/R`, on the light itself (not floored); `columns` holds the light of columns
+/// `first..`. That is the column where the profile's correlation with a bell-shaped footprint
+/// (the triweight `(1 − u²)³`, the biweight's integral) peaks: a matched filter. Columns far
+/// from the centre, whose noise moves a centroid most and which hold the least light, weigh
+/// little, without the floor's threshold. `R` is [`MATCHED_REACH`] times the floored light's
+/// RMS width, so the window fits the footprint (a camera pixel spanning several columns, the
+/// projector's blur); a light's own asymmetry still moves its column about as it moves the
+/// centroid. One pass from the centroid: on synthetic lights (`tests/suite/cosine.rs`) the
+/// scatter falls from 0.0046 to 0.0034 column (BFSM) and from 0.0107 to 0.0090 (EFSM two
+/// groups), on the simulated plane from 0.0038 to 0.0026 and from 0.0084 to 0.0065; a second
+/// pass gained 5% more for about 130 more x86 instructions a pixel. A pass that leaves the
+/// columns, or moves the column by more than one, keeps the centroid.
+fn matched(columns: &[f32], first: usize, centroid: f32, variance: f32) -> f32 {
+    let reach = MATCHED_REACH * crate::math::sqrt(variance);
+    let per_column = 1.0 / reach;
+    let (mut weight, mut moment) = (0.0f32, 0.0f32);
+    let mut d = first as u32 as f32 - centroid;
+    for &x in columns {
+        let u = d * per_column;
+        let t = (1.0 - u * u).max(0.0);
+        let w = x * (t * t);
+        weight += w;
+        moment += w * d;
+        d += 1.0;
+    }
+    if weight <= 0.0 {
+        return centroid;
+    }
+    let column = centroid + moment / weight;
+    let inside = column >= first as f32 && column <= (first + columns.len() - 1) as f32;
+    if inside && (column - centroid).abs() <= 1.0 {
+        column
+    } else {
+        centroid
+    }
+}
+
+/// The biweight window of step 4 reaches this many RMS widths of the floored light. Chosen
+/// on a model of box footprints in white noise, before any measurement of the decoder: there
+/// 3–3.5 scattered least (2.5: 4% more, 4: 3% more), and 3.5 was the least biased without noise.
+pub const MATCHED_REACH: f32 = 3.5;
+
+/// The least variance, columns², of an isolated light's floored weights for [`matched`] to move
+/// it (an RMS width of 0.8 column). A narrower light lies on two or three columns, across which
+/// the window is far from flat: sampled so coarsely, the window's fixed point is off the
+/// centroid by up to 0.1 column (two columns lit, or a spot blurred by σ 0.4: the suites
+/// `accuracy` and `estimators`), more than the noise it saves; it keeps its centroid.
+const MATCHED_MIN_VARIANCE: f32 = 0.64;
+
+/// Most columns of an isolated light that [`matched`] re-measures.
+const MATCHED_MAX_COLUMNS: usize = 32;
 
 /// A run of at least [`BACKGROUND_WINDOW`] columns: the narrow lights on its opening, or, if
 /// there are none, the run as one wide light.
@@ -641,7 +768,7 @@ fn narrow_light(
     top: usize,
     (lo, hi): (usize, usize),
     levels: &Levels,
-) -> Option<Peak> {
+) -> Option<Light> {
     let reach = BACKGROUND_WINDOW / 2;
     let bend = |j: usize| v(j - 1) - 2.0 * v(j) + v(j + 1);
     // Without an upward bend within reach, the foot is where the reach ends.
@@ -665,32 +792,36 @@ fn narrow_light(
     (light.amplitude > 0.0).then_some(light)
 }
 
-/// The lights that pass the floors, strongest first, at most `max_peaks`.
-fn keep_strongest(plan: &ScanPlan, lights: &[Peak], out: &mut PeakList) {
+/// The lights that pass the floors, strongest first, at most `max_peaks` (`lights` is sorted
+/// in place).
+fn keep_strongest(plan: &ScanPlan, lights: &mut [Light], out: &mut PeakList) {
     let settings = plan.decoding;
     let strongest = lights.iter().map(|l| l.amplitude).fold(0.0f32, f32::max);
     let floor = settings
         .min_amplitude_dn
         .max(settings.relative_floor * strongest);
-    let mut kept: Vec<Peak, { 2 * MAX_PEAKS }> = Vec::new();
-    for light in lights.iter().filter(|l| l.amplitude > floor) {
-        let _ = kept.push(*light);
-    }
     // Insertion sort, amplitude descending then column ascending: the order must not depend
     // on a sort algorithm.
-    for i in 1..kept.len() {
+    for i in 1..lights.len() {
         let mut k = i;
-        while k > 0 && stronger(&kept[k], &kept[k - 1]) {
-            kept.swap(k, k - 1);
+        while k > 0 && stronger(&lights[k], &lights[k - 1]) {
+            lights.swap(k, k - 1);
             k -= 1;
         }
     }
-    for light in kept.iter().take(settings.max_peaks as usize) {
-        let _ = out.peaks.push(*light);
+    let kept = lights.iter().filter(|l| l.amplitude > floor);
+    for light in kept.take(settings.max_peaks as usize) {
+        let _ = out.peaks.push(Peak {
+            column: light.column,
+            amplitude: light.amplitude,
+            magnitude: light.magnitude,
+            bin: light.bin,
+            weights: ColumnWeights::default(),
+        });
     }
 }
 
-fn stronger(a: &Peak, b: &Peak) -> bool {
+fn stronger(a: &Light, b: &Light) -> bool {
     b.amplitude
         .total_cmp(&a.amplitude)
         .then(a.column.total_cmp(&b.column))
