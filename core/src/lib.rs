@@ -20,6 +20,7 @@
 //! | one temporal row → candidates of every pixel | [`decoder`] | §III-F, §IV-B |
 //! | plans, row dumps, candidate rows as bytes | [`wire`] | SPEC §6 |
 //! | the methods FSM is compared with (phase shift, Micro Phase Shifting, line scanning), same candidates | [`baseline`] | eqs. 1–3, §VII, §VIII-F |
+//! | any method's plan, its bytes and its row decoder | [`methods`] | SPEC §6 |
 //!
 //! ```
 //! use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
@@ -57,6 +58,7 @@ pub mod block;
 pub mod candidate;
 pub mod decoder;
 pub mod math;
+pub mod methods;
 pub mod noise;
 pub mod peak;
 pub mod plan;
@@ -71,6 +73,7 @@ pub use baseline::phase_shift::PhaseShiftPlan;
 pub use baseline::{PatternSequence, PixelDecoder};
 pub use candidate::{Candidate, ColumnRange, GroupSet, PixelCandidates, PixelFlags};
 pub use decoder::{Decoder, DecoderError, Row, RowError};
+pub use methods::{MethodDecoder, MethodDecoderError, MethodPlan, MethodPlanError};
 pub use peak::{Peak, PeakList};
 pub use plan::sequence::{Group, Pattern};
 pub use plan::{

@@ -132,43 +132,82 @@ pub trait PixelDecoder: PatternSequence {
         row: &Row<'_>,
         out: &mut [PixelCandidates<K>],
     ) -> Result<(), RowError> {
-        if row.width == 0 {
-            return Err(RowError::EmptyRow);
-        }
-        if !(1..=16).contains(&row.bit_depth) {
-            return Err(RowError::BitDepth {
-                bit_depth: row.bit_depth,
-            });
-        }
-        let expected = self.frame_count().saturating_mul(row.width);
-        if row.frames.len() != expected {
-            return Err(RowError::FramesLength {
-                expected,
-                actual: row.frames.len(),
-            });
-        }
+        check_row(self.frame_count(), row)?;
         if out.len() != row.width {
             return Err(RowError::OutputLength {
                 expected: row.width,
                 actual: out.len(),
             });
         }
-        if let Some(limits) = row.column_limits {
-            if limits.len() != row.width {
-                return Err(RowError::ColumnLimitsLength {
-                    expected: row.width,
-                    actual: limits.len(),
-                });
-            }
-        }
-        let saturation = ((1u32 << row.bit_depth) - 1) as u16;
-        let projector = ColumnRange::projector(self.projector_columns());
         for (x, pixel) in out.iter_mut().enumerate() {
-            let range = row
-                .column_limits
-                .map_or(projector, |l| projector.intersect(&l[x]));
-            self.decode_pixel(|i| row.frames[i * row.width + x], saturation, &range, pixel);
+            self.decode_checked(row, x, pixel);
         }
         Ok(())
     }
+
+    /// Decodes pixel `x` of `row` alone, with the checks of [`PixelDecoder::decode_row`]: the
+    /// same candidates as the whole row gives that pixel (each pixel is decoded on its own),
+    /// so a camera may decode a row a slice of pixels at a time.
+    fn decode_row_pixel<const K: usize>(
+        &self,
+        row: &Row<'_>,
+        x: usize,
+        out: &mut PixelCandidates<K>,
+    ) -> Result<(), RowError> {
+        check_row(self.frame_count(), row)?;
+        if x >= row.width {
+            return Err(RowError::Pixel {
+                x,
+                width: row.width,
+            });
+        }
+        self.decode_checked(row, x, out);
+        Ok(())
+    }
+
+    /// Decodes pixel `x < row.width` of a row whose frames, bit depth and column limits were
+    /// checked (what both methods above share).
+    #[doc(hidden)]
+    fn decode_checked<const K: usize>(
+        &self,
+        row: &Row<'_>,
+        x: usize,
+        out: &mut PixelCandidates<K>,
+    ) {
+        let saturation = ((1u32 << row.bit_depth) - 1) as u16;
+        let projector = ColumnRange::projector(self.projector_columns());
+        let range = row
+            .column_limits
+            .map_or(projector, |l| projector.intersect(&l[x]));
+        self.decode_pixel(|i| row.frames[i * row.width + x], saturation, &range, out);
+    }
+}
+
+/// The checks of a row every baseline decoder makes before it reads a sample: a width, a bit
+/// depth of 1–16, `frames × width` samples, column limits (if any) for every pixel.
+fn check_row(frames: usize, row: &Row<'_>) -> Result<(), RowError> {
+    if row.width == 0 {
+        return Err(RowError::EmptyRow);
+    }
+    if !(1..=16).contains(&row.bit_depth) {
+        return Err(RowError::BitDepth {
+            bit_depth: row.bit_depth,
+        });
+    }
+    let expected = frames.saturating_mul(row.width);
+    if row.frames.len() != expected {
+        return Err(RowError::FramesLength {
+            expected,
+            actual: row.frames.len(),
+        });
+    }
+    if let Some(limits) = row.column_limits {
+        if limits.len() != row.width {
+            return Err(RowError::ColumnLimitsLength {
+                expected: row.width,
+                actual: limits.len(),
+            });
+        }
+    }
+    Ok(())
 }

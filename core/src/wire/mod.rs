@@ -131,6 +131,14 @@ pub enum WireError {
     },
     /// A decoded plan breaks a rule.
     Plan(PlanError),
+    /// A decoded plan of a method FSM is compared with (`crate::baseline`) breaks one of its
+    /// rules: the field, its value and the rule.
+    Rule {
+        what: &'static str,
+        field: &'static str,
+        value: f32,
+        rule: &'static str,
+    },
     /// The output buffer is too small.
     BufferTooSmall {
         what: &'static str,
@@ -169,6 +177,9 @@ impl fmt::Display for WireError {
                 write!(f, "{what}: row {row} is outside the image height {height}")
             }
             WireError::Plan(e) => write!(f, "scan plan: {e}"),
+            WireError::Rule { what, field, value, rule } => {
+                write!(f, "{what}: {field} = {value}: {rule}")
+            }
             WireError::BufferTooSmall { what, needed, got } => {
                 write!(f, "{what}: output buffer holds {got} bytes, {needed} needed")
             }
@@ -176,78 +187,79 @@ impl fmt::Display for WireError {
     }
 }
 
-/// Little-endian reads from a slice whose length was checked beforehand.
-struct Reader<'a> {
+/// Little-endian reads from a slice whose length was checked beforehand (every plan's wire
+/// form reads through it, the baselines' too: `crate::methods::wire`).
+pub(crate) struct Reader<'a> {
     bytes: &'a [u8],
-    at: usize,
+    pub(crate) at: usize,
 }
 
 impl<'a> Reader<'a> {
-    fn new(bytes: &'a [u8]) -> Self {
+    pub(crate) fn new(bytes: &'a [u8]) -> Self {
         Reader { bytes, at: 0 }
     }
 
-    fn take<const N: usize>(&mut self) -> [u8; N] {
+    pub(crate) fn take<const N: usize>(&mut self) -> [u8; N] {
         let mut out = [0u8; N];
         out.copy_from_slice(&self.bytes[self.at..self.at + N]);
         self.at += N;
         out
     }
 
-    fn u8(&mut self) -> u8 {
+    pub(crate) fn u8(&mut self) -> u8 {
         self.take::<1>()[0]
     }
 
-    fn u16(&mut self) -> u16 {
+    pub(crate) fn u16(&mut self) -> u16 {
         u16::from_le_bytes(self.take())
     }
 
-    fn u32(&mut self) -> u32 {
+    pub(crate) fn u32(&mut self) -> u32 {
         u32::from_le_bytes(self.take())
     }
 
-    fn u64(&mut self) -> u64 {
+    pub(crate) fn u64(&mut self) -> u64 {
         u64::from_le_bytes(self.take())
     }
 
-    fn f32(&mut self) -> f32 {
+    pub(crate) fn f32(&mut self) -> f32 {
         f32::from_le_bytes(self.take())
     }
 }
 
 /// Little-endian writes into a slice whose length was checked beforehand.
-struct Writer<'a> {
+pub(crate) struct Writer<'a> {
     bytes: &'a mut [u8],
-    at: usize,
+    pub(crate) at: usize,
 }
 
 impl<'a> Writer<'a> {
-    fn new(bytes: &'a mut [u8]) -> Self {
+    pub(crate) fn new(bytes: &'a mut [u8]) -> Self {
         Writer { bytes, at: 0 }
     }
 
-    fn put(&mut self, b: &[u8]) {
+    pub(crate) fn put(&mut self, b: &[u8]) {
         self.bytes[self.at..self.at + b.len()].copy_from_slice(b);
         self.at += b.len();
     }
 
-    fn u8(&mut self, v: u8) {
+    pub(crate) fn u8(&mut self, v: u8) {
         self.put(&[v]);
     }
 
-    fn u16(&mut self, v: u16) {
+    pub(crate) fn u16(&mut self, v: u16) {
         self.put(&v.to_le_bytes());
     }
 
-    fn u32(&mut self, v: u32) {
+    pub(crate) fn u32(&mut self, v: u32) {
         self.put(&v.to_le_bytes());
     }
 
-    fn u64(&mut self, v: u64) {
+    pub(crate) fn u64(&mut self, v: u64) {
         self.put(&v.to_le_bytes());
     }
 
-    fn f32(&mut self, v: f32) {
+    pub(crate) fn f32(&mut self, v: f32) {
         self.put(&v.to_le_bytes());
     }
 }

@@ -100,12 +100,30 @@ pub struct RowDumpHeader {
 impl RowDumpHeader {
     /// The header of a dump of `plan`'s frames.
     pub fn for_plan(plan: &ScanPlan, width: u32, height: u32, bit_depth: u8) -> Self {
-        RowDumpHeader {
-            bit_depth,
-            recorded_with: RecordedWith::Patterns(plan.pattern_fingerprint()),
+        Self::for_patterns(
+            plan.pattern_fingerprint(),
+            plan.sequence_len(),
             width,
             height,
-            frames: plan.sequence_len() as u32,
+            bit_depth,
+        )
+    }
+
+    /// The header of a dump of `frames` frames per row whose patterns have the fingerprint
+    /// `patterns`: any method's plan (`crate::methods::MethodPlan::row_dump_header`).
+    pub fn for_patterns(
+        patterns: u64,
+        frames: usize,
+        width: u32,
+        height: u32,
+        bit_depth: u8,
+    ) -> Self {
+        RowDumpHeader {
+            bit_depth,
+            recorded_with: RecordedWith::Patterns(patterns),
+            width,
+            height,
+            frames: frames as u32,
         }
     }
 
@@ -167,14 +185,20 @@ impl RowDumpHeader {
     /// Checks that the dump was made with `plan`'s patterns (or, for a version-1 dump, with
     /// `plan` itself).
     pub fn check_plan(&self, plan: &ScanPlan) -> Result<(), WireError> {
-        if !self.recorded_with.admits(&plan.identity()) {
+        self.check_identity(&plan.identity(), plan.sequence_len())
+    }
+
+    /// Checks that the dump was made with the patterns of a plan of identity `plan` and
+    /// `frames` frames per row: any method's plan (`crate::methods::MethodPlan::check_row_dump`).
+    pub fn check_identity(&self, plan: &PlanIdentity, frames: usize) -> Result<(), WireError> {
+        if !self.recorded_with.admits(plan) {
             return Err(WireError::Field {
                 what: WHAT,
                 field: self.recorded_with.field(),
                 value: self.recorded_with.fingerprint(),
             });
         }
-        if self.frames as usize != plan.sequence_len() {
+        if self.frames as usize != frames {
             return Err(WireError::Field {
                 what: WHAT,
                 field: "frames",

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 /// The pipeline's layers, lowest first (the table in `lib.rs`'s docs follows it).
-const LAYERS: [&str; 11] = [
+const LAYERS: [&str; 12] = [
     "math",
     "plan",
     "candidate",
@@ -17,6 +17,7 @@ const LAYERS: [&str; 11] = [
     "block",
     "decoder",
     "baseline",
+    "methods",
 ];
 
 /// Top-level modules `lib.rs` declares.

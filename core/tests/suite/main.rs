@@ -13,6 +13,7 @@ mod estimators;
 mod kernel;
 mod layers;
 mod local_maxima;
+mod methods;
 mod noise;
 mod plan;
 mod properties;

@@ -179,7 +179,7 @@ fn run_case(case: &str, stack_dir: &Path) {
             let held = bytes.len() as u64;
             let open = || {
                 let reader = DumpReader::new(Cursor::new(&bytes[..]), Path::new("memory")).unwrap();
-                reader.check(&plan, Some(BITS)).unwrap();
+                reader.check(plan, Some(BITS)).unwrap();
                 RowBatches::from_dump(reader.boxed(), dump_rows, BadRows::Refuse)
             };
             let pass = || match case {
@@ -196,7 +196,7 @@ fn run_case(case: &str, stack_dir: &Path) {
             (label, seconds, held)
         }
         "stack-png" | "stack-png-8-bands" | "stack-png-read-only" => {
-            let capture = Capture::open_stack(stack_dir, &plan, Some(BITS)).unwrap();
+            let capture = Capture::open_stack(stack_dir, plan, Some(BITS)).unwrap();
             let budget = match case {
                 "stack-png-8-bands" => capture.samples_bytes().div_ceil(8),
                 _ => capture.samples_bytes(),

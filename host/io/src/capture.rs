@@ -361,7 +361,7 @@ mod tests {
             response: None,
         };
         write_pattern_set(&plan, &options, None, dir, false, &Progress::hidden()).unwrap();
-        let capture = Capture::open_stack(dir, &plan, None).unwrap();
+        let capture = Capture::open_stack(dir, plan, None).unwrap();
         (plan, capture)
     }
 
@@ -391,8 +391,8 @@ mod tests {
             unreachable!()
         };
         let dump = dir.path().join("s.dump");
-        crate::dump::write_dump_from_stack(&plan, s, &dump, 1 << 10, &Progress::hidden()).unwrap();
-        let from_dump = Capture::open_dump(&dump, &plan, None, BadRows::Refuse).unwrap();
+        crate::dump::write_dump_from_stack(plan, s, &dump, 1 << 10, &Progress::hidden()).unwrap();
+        let from_dump = Capture::open_dump(&dump, plan, None, BadRows::Refuse).unwrap();
         let mut a = vec![0u16; capture.row_len()];
         let mut b = vec![0u16; capture.row_len()];
         for y in [0, 3, 5] {

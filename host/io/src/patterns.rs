@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::image_files::{self, ImageFormat};
 use crate::outputs::{self, StagedDir};
-use crate::plan_file::MethodPlan;
+use crate::plan_file::{MethodPlan, MethodPlanText};
 use crate::progress::Progress;
 use crate::projector_response::ProjectorResponse;
 

@@ -14,8 +14,8 @@ use std::fmt;
 use std::path::Path;
 
 use fsm_core::{
-    CodeEnsemblePlan, GroupCount, LineScanPlan, MicroPhaseShiftPlan, PatternSequence,
-    PhaseShiftPlan, PixelDecoder, PlanError, ScanPlan,
+    CodeEnsemblePlan, GroupCount, LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, PlanError,
+    ScanPlan,
 };
 use serde_json::Value;
 
@@ -201,133 +201,49 @@ fn settings_on<'a>(
     })
 }
 
-/// A plan of any method the toolkit knows: FSM's, or one of the baselines the paper compares
-/// it with (`fsm_core::baseline`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum MethodPlan {
-    /// BFSM or EFSM.
-    Fsm(ScanPlan),
-    /// Phase shift + Gray code.
-    PhaseShift(PhaseShiftPlan),
-    /// Micro Phase Shifting.
-    MicroPhaseShift(MicroPhaseShiftPlan),
-    /// Line scanning.
-    LineScan(LineScanPlan),
-    /// Code Ensemble.
-    CodeEnsemble(CodeEnsemblePlan),
-}
+pub use fsm_core::methods::BASELINE_TABLES;
+/// A plan of any method the toolkit knows (`fsm_core::methods::MethodPlan`): its fingerprints,
+/// frames, bytes and decoder are the core's; its words ([`MethodPlanText`]) are the host's.
+pub use fsm_core::MethodPlan;
 
-impl From<&ScanPlan> for MethodPlan {
-    fn from(plan: &ScanPlan) -> Self {
-        MethodPlan::Fsm(*plan)
-    }
-}
-
-/// The table names of the baselines' plan files, in [`MethodPlan`] order.
-pub const BASELINE_TABLES: [&str; 4] = [
-    "phase_shift",
-    "micro_phase_shift",
-    "line_scan",
-    "code_ensemble",
-];
-
-impl MethodPlan {
-    /// The patterns the plan shows.
-    pub fn patterns(&self) -> &dyn PatternSequence {
-        match self {
-            MethodPlan::Fsm(p) => p,
-            MethodPlan::PhaseShift(p) => p,
-            MethodPlan::MicroPhaseShift(p) => p,
-            MethodPlan::LineScan(p) => p,
-            MethodPlan::CodeEnsemble(p) => p,
-        }
-    }
-
-    /// The method's short name in tables and summaries: BFSM, EFSM, PS, MPS, LS or CE.
-    pub fn name(&self) -> &'static str {
-        match self {
-            MethodPlan::Fsm(p) => match p.method {
-                fsm_core::Method::Bfsm => "BFSM",
-                fsm_core::Method::Efsm(_) => "EFSM",
+impl From<fsm_core::MethodPlanError> for PlanFileError {
+    fn from(e: fsm_core::MethodPlanError) -> Self {
+        match e {
+            fsm_core::MethodPlanError::Fsm(e) => PlanFileError::Invalid(e),
+            other => PlanFileError::BaselineInvalid {
+                method: match other {
+                    fsm_core::MethodPlanError::PhaseShift(_) => BASELINE_TABLES[0],
+                    fsm_core::MethodPlanError::MicroPhaseShift(_) => BASELINE_TABLES[1],
+                    fsm_core::MethodPlanError::LineScan(_) => BASELINE_TABLES[2],
+                    _ => BASELINE_TABLES[3],
+                },
+                message: other.to_string(),
             },
-            MethodPlan::PhaseShift(_) => "PS",
-            MethodPlan::MicroPhaseShift(_) => "MPS",
-            MethodPlan::LineScan(_) => "LS",
-            MethodPlan::CodeEnsemble(_) => "CE",
         }
     }
+}
 
-    /// The plan file's table for a baseline; `None` for FSM (whose fields are top level).
-    pub fn table(&self) -> Option<&'static str> {
-        match self {
-            MethodPlan::Fsm(_) => None,
-            MethodPlan::PhaseShift(_) => Some(BASELINE_TABLES[0]),
-            MethodPlan::MicroPhaseShift(_) => Some(BASELINE_TABLES[1]),
-            MethodPlan::LineScan(_) => Some(BASELINE_TABLES[2]),
-            MethodPlan::CodeEnsemble(_) => Some(BASELINE_TABLES[3]),
-        }
-    }
-
-    /// Checks the method's rules.
-    pub fn validate(&self) -> Result<(), PlanFileError> {
-        let baseline = |method, message: String| PlanFileError::BaselineInvalid { method, message };
-        match self {
-            MethodPlan::Fsm(p) => p.validate().map_err(PlanFileError::Invalid),
-            MethodPlan::PhaseShift(p) => p
-                .validate()
-                .map_err(|e| baseline(BASELINE_TABLES[0], e.to_string())),
-            MethodPlan::MicroPhaseShift(p) => p
-                .validate()
-                .map_err(|e| baseline(BASELINE_TABLES[1], e.to_string())),
-            MethodPlan::LineScan(p) => p
-                .validate()
-                .map_err(|e| baseline(BASELINE_TABLES[2], e.to_string())),
-            MethodPlan::CodeEnsemble(p) => p
-                .validate()
-                .map_err(|e| baseline(BASELINE_TABLES[3], e.to_string())),
-        }
-    }
-
-    /// The fingerprint candidate files of its decodes carry (patterns and decoder settings).
-    pub fn fingerprint(&self) -> u64 {
-        self.patterns().fingerprint()
-    }
-
-    /// The fingerprint row dumps and image stacks of its captures carry (the patterns alone).
-    pub fn pattern_fingerprint(&self) -> u64 {
-        self.patterns().pattern_fingerprint()
-    }
-
-    /// The noise RMS of the amplitude the method's decoder gives a dark pixel's light, sensor
-    /// DN ([`fsm_core::Decoder::dark_column_noise_dn`] for FSM: one column of the light
-    /// profile or one bin of the spectrum; [`PixelDecoder::dark_amplitude_noise_dn`] for the
-    /// others): what a point's quality is measured in.
-    pub fn dark_amplitude_noise_dn(&self, bit_depth: u8) -> f32 {
-        match self {
-            MethodPlan::Fsm(p) => fsm_core::Decoder::dark_column_noise_dn(p, bit_depth),
-            MethodPlan::PhaseShift(p) => p.dark_amplitude_noise_dn(bit_depth),
-            MethodPlan::MicroPhaseShift(p) => p.dark_amplitude_noise_dn(bit_depth),
-            MethodPlan::CodeEnsemble(p) => p.dark_amplitude_noise_dn(bit_depth),
-            MethodPlan::LineScan(p) => p.dark_amplitude_noise_dn(bit_depth),
-        }
-    }
-
-    /// Whether each light the method decodes is measured, with a noise its amplitude is judged
-    /// against (FSM, line scanning), rather than named by a code whose unwrapping or
-    /// quantisation can be wrong by whole periods or codewords (phase shift, Micro Phase
-    /// Shifting, Code Ensemble): the scan's confirmation of points by their neighbourhood is for
-    /// the former; the comparison reports every point the codes decode.
-    pub fn measures_lights(&self) -> bool {
-        matches!(self, MethodPlan::Fsm(_) | MethodPlan::LineScan(_))
-    }
-
-    /// Frames in the sequence.
-    pub fn frame_count(&self) -> usize {
-        self.patterns().frame_count()
-    }
-
+/// What the host says about a plan of any method, in words, and the plan-file errors of its
+/// rules: the `String`-returning side of [`MethodPlan`], which `fsm_core` (no allocation)
+/// leaves to the host.
+pub trait MethodPlanText {
+    /// Checks the method's rules, as a plan file's error.
+    fn validate(&self) -> Result<(), PlanFileError>;
     /// The frames in words ("dark, white, 768 fringes"; "17 Micro Phase Shifting fringes").
-    pub fn sequence_summary(&self) -> String {
+    fn sequence_summary(&self) -> String;
+    /// What the plan is and what it resolves to, one `  field:  value` line each (`fsm plan`
+    /// prints it): method, projector, fringes or codes, frames and both fingerprints.
+    fn description(&self) -> String;
+    /// The FSM plan, or the error a command that takes only FSM plans gives.
+    fn fsm(self) -> Result<ScanPlan, PlanFileError>;
+}
+
+impl MethodPlanText for MethodPlan {
+    fn validate(&self) -> Result<(), PlanFileError> {
+        self.check().map_err(PlanFileError::from)
+    }
+
+    fn sequence_summary(&self) -> String {
         match self {
             MethodPlan::Fsm(p) => crate::stack::sequence_summary(p),
             MethodPlan::PhaseShift(p) => format!(
@@ -347,9 +263,7 @@ impl MethodPlan {
         }
     }
 
-    /// What the plan is and what it resolves to, one `  field:  value` line each (`fsm plan`
-    /// prints it): method, projector, fringes or codes, frames and both fingerprints.
-    pub fn description(&self) -> String {
+    fn description(&self) -> String {
         let mut lines: Vec<String> = Vec::new();
         let mut line = |field: &str, value: String| lines.push(format!("  {field:<14} {value}"));
         let compared = "(a method FSM is compared with)";
@@ -473,8 +387,7 @@ impl MethodPlan {
         text
     }
 
-    /// The FSM plan, or the error a command that takes only FSM plans gives.
-    pub fn fsm(self) -> Result<ScanPlan, PlanFileError> {
+    fn fsm(self) -> Result<ScanPlan, PlanFileError> {
         match self {
             MethodPlan::Fsm(p) => Ok(p),
             other => Err(PlanFileError::OtherMethod {
@@ -736,17 +649,11 @@ pub fn write_method_plan(plan: &MethodPlan, path: &Path) -> Result<()> {
     )
 }
 
-/// Writes the FSM plan's 80-byte wire form (`fsm_core::wire::plan`: the bytes `fsm upload`
-/// sends) to `path`, whole or not at all, and returns its length; a plan of another method is
-/// refused naming `path` (the camera decodes FSM).
+/// Writes the plan's canonical bytes (`fsm_core::methods::wire`: an FSM plan's 80, a
+/// baseline's 32 or 96; the bytes `fsm upload` sends) to `path`, whole or not at all, and
+/// returns their length.
 pub fn write_wire(plan: &MethodPlan, path: &Path) -> Result<usize> {
-    let bytes = plan
-        .fsm()
-        .map_err(|source| Error::PlanFile {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .to_bytes();
+    let bytes = plan.to_bytes();
     outputs::write_file(path, &bytes)?;
     Ok(bytes.len())
 }
@@ -1126,7 +1033,7 @@ mod tests {
     }
 
     #[test]
-    fn the_wire_form_is_written_for_fsm_plans_only() {
+    fn the_wire_form_is_written_for_every_method() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("plan.bin");
         let plan = Preset::PaperEfsm2.plan();
@@ -1136,11 +1043,14 @@ mod tests {
             (len, ScanPlan::from_bytes(&bytes).unwrap()),
             (bytes.len(), plan)
         );
-        let other = dir.path().join("ls.bin");
-        let line_scan = MethodKind::LineScan.plan(256, 64, GroupCount::Two);
-        let e = write_wire(&line_scan, &other).unwrap_err().to_string();
-        assert!(e.contains("ls.bin") && e.contains("FSM"), "{e}");
-        assert!(!other.exists());
+        for (kind, _) in MethodKind::ALL {
+            let plan = kind.plan(256, 64, GroupCount::Two);
+            let path = dir.path().join(format!("{}.bin", kind.name()));
+            let len = write_wire(&plan, &path).unwrap();
+            let bytes = std::fs::read(&path).unwrap();
+            assert_eq!(len, plan.wire_len());
+            assert_eq!(MethodPlan::from_bytes(&bytes), Ok(plan));
+        }
     }
 
     #[test]

@@ -16,7 +16,7 @@ use fsm_core::ScanPlan;
 use rayon::prelude::*;
 
 use crate::image_files::{self, ImageFormat, ImageInfo};
-use crate::plan_file::MethodPlan;
+use crate::plan_file::{MethodPlan, MethodPlanText};
 
 /// What is wrong with a stack.
 #[derive(Debug, thiserror::Error)]

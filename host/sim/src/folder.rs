@@ -13,7 +13,9 @@ use fsm_calibrate::board::Checkerboard;
 use fsm_core::ScanPlan;
 use fsm_io::image_files::{write_png_gray16, write_png_gray8, write_tiff_f32};
 use fsm_io::outputs::write_file;
-use fsm_io::plan_file::{read_method_plan, write_method_plan, write_plan, MethodPlan, Preset};
+use fsm_io::plan_file::{
+    read_method_plan, write_method_plan, write_plan, MethodPlan, MethodPlanText, Preset,
+};
 use fsm_io::progress::Progress;
 use fsm_io::{Error, Result};
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use fsm_core::GroupCount;
-use fsm_io::plan_file::{self, MethodKind, MethodPlan, PlanSyntax, Preset};
+use fsm_io::plan_file::{self, MethodKind, MethodPlan, MethodPlanText, PlanSyntax, Preset};
 use fsm_io::Result;
 
 use super::named;

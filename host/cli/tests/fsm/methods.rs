@@ -103,16 +103,18 @@ fn every_method_derives_its_plan_from_the_projector_width() {
         "line_scan.noise_factr=8",
     ]);
     assert!(e.contains("line_scan.noise_factr"), "{e}");
-    // The camera takes FSM plans: no wire form for a baseline.
-    let e = fails(&[
+    // The camera takes every method's plan: a baseline's wire form is its canonical bytes.
+    ok(&[
         "plan",
         "--check",
         s(&d.join("line-scan.toml")),
         "--wire",
         s(&d.join("ls.bin")),
     ]);
-    assert!(e.contains("line_scan plan") && e.contains("FSM"), "{e}");
-    assert!(!d.join("ls.bin").exists());
+    let bytes = fs::read(d.join("ls.bin")).unwrap();
+    let wired = MethodPlan::from_bytes(&bytes).unwrap();
+    assert_eq!(wired, read_method_plan(&d.join("line-scan.toml")).unwrap());
+    assert_eq!(&bytes[..2], b"LS");
 }
 
 #[test]

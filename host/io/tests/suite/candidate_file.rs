@@ -72,14 +72,14 @@ fn decoded_rows_round_trip() {
         rows.iter().flatten().any(|p| p.candidates.len() >= 2),
         "some pixels have two candidates"
     );
-    let bytes = file_bytes(candidate_header(&plan, 12, 3), &rows);
+    let bytes = file_bytes(candidate_header(plan, 12, 3), &rows);
     assert_eq!(read_all(&bytes, 12).unwrap(), rows);
 }
 
 #[test]
 fn damage_is_an_error_naming_the_row() {
     let (plan, rows) = decoded_rows(3, 12);
-    let bytes = file_bytes(candidate_header(&plan, 12, 3), &rows);
+    let bytes = file_bytes(candidate_header(plan, 12, 3), &rows);
     let first_len = fsm_core::wire::candidates::record_len(&rows[0]);
     let second = HEADER_LEN + first_len;
 
@@ -112,7 +112,7 @@ fn damage_is_an_error_naming_the_row() {
     ));
 
     // Rows 1 and 0 swapped: valid records, wrong order.
-    let header = candidate_header(&plan, 12, 3);
+    let header = candidate_header(plan, 12, 3);
     let mut swapped = header.encode().to_vec();
     for (y, row) in [(1u32, &rows[1]), (0, &rows[0]), (2, &rows[2])] {
         let mut record = Vec::new();
@@ -143,7 +143,7 @@ fn damage_is_an_error_naming_the_row() {
 #[test]
 fn the_writer_refuses_rows_out_of_order_and_missing_rows() {
     let (plan, rows) = decoded_rows(2, 5);
-    let header = candidate_header(&plan, 5, 2);
+    let header = candidate_header(plan, 5, 2);
     let mut writer = CandidateWriter::new(Vec::new(), header).unwrap();
     assert!(writer.write_row(1, &rows[1]).is_err());
     writer.write_row(0, &rows[0]).unwrap();

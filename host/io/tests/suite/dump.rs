@@ -69,7 +69,7 @@ fn rows_round_trip_in_any_order() {
     let path = dir.path().join("scan.dump");
     std::fs::write(&path, &bytes).unwrap();
     let reader = DumpReader::open(&path).unwrap();
-    reader.check(&plan, Some(12)).unwrap();
+    reader.check(plan, Some(12)).unwrap();
 }
 
 #[test]
@@ -190,7 +190,7 @@ fn padding_duplicates_and_foreign_plans_are_refused() {
 
     let reader = DumpReader::new(Cursor::new(&bytes), Path::new("a.dump")).unwrap();
     let other = ScanPlan::paper_efsm(GroupCount::Two);
-    let e = reader.check(&other, None).unwrap_err();
+    let e = reader.check(other, None).unwrap_err();
     assert!(matches!(e, DumpError::PatternMismatch { .. }));
     assert!(
         e.to_string()
@@ -200,7 +200,7 @@ fn padding_duplicates_and_foreign_plans_are_refused() {
     // Other decoder settings, same patterns: accepted.
     let mut retuned = plan;
     retuned.decoding.noise_factor += 1.0;
-    reader.check(&retuned, Some(12)).unwrap();
+    reader.check(retuned, Some(12)).unwrap();
     // A version-1 dump (the whole plan's fingerprint) decodes with its plan only.
     let v1 = RowDumpHeader {
         recorded_with: RecordedWith::Plan(plan.fingerprint()),
@@ -209,11 +209,11 @@ fn padding_duplicates_and_foreign_plans_are_refused() {
     let mut old = bytes.clone();
     old[..HEADER_LEN].copy_from_slice(&v1.encode());
     let old_reader = DumpReader::new(Cursor::new(&old), Path::new("old.dump")).unwrap();
-    old_reader.check(&plan, Some(12)).unwrap();
-    let e = old_reader.check(&retuned, None).unwrap_err();
+    old_reader.check(plan, Some(12)).unwrap();
+    let e = old_reader.check(retuned, None).unwrap_err();
     assert!(matches!(e, DumpError::PlanMismatch { .. }), "{e}");
     assert!(e.to_string().contains("version-1"), "{e}");
-    let e = reader.check(&plan, Some(10)).unwrap_err();
+    let e = reader.check(plan, Some(10)).unwrap_err();
     assert!(
         matches!(
             e,
@@ -236,13 +236,13 @@ fn a_corrupted_dump_fails_the_decode_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scan.dump");
     std::fs::write(&path, &bytes).unwrap();
-    let capture = Capture::open_dump(&path, &plan, None, BadRows::Refuse).unwrap();
+    let capture = Capture::open_dump(&path, plan, None, BadRows::Refuse).unwrap();
     let out = dir.path().join("decoded");
     let options = DecodeOptions {
         memory_budget_bytes: 1 << 20,
         threads: 2,
     };
-    let e = decode::decode_to_dir(&plan, &capture, &out, false, &options, &Progress::hidden())
+    let e = decode::decode_to_dir(plan, &capture, &out, false, &options, &Progress::hidden())
         .unwrap_err();
     assert!(matches!(&e, Error::Dump(d) if d.row() == Some(33)), "{e}");
     assert_eq!(
@@ -281,14 +281,14 @@ fn rows_stored_out_of_order_decode_to_the_same_candidate_file() {
     for (name, order) in [("a", &in_order), ("b", &reversed)] {
         let path = dir.path().join(format!("{name}.dump"));
         std::fs::write(&path, scene_dump(&plan, width, height, order)).unwrap();
-        let capture = Capture::open_dump(&path, &plan, Some(12), BadRows::Refuse).unwrap();
+        let capture = Capture::open_dump(&path, plan, Some(12), BadRows::Refuse).unwrap();
         let out = dir.path().join(name);
         let options = DecodeOptions {
             memory_budget_bytes: 1 << 30,
             threads: 2,
         };
         let summary =
-            decode::decode_to_dir(&plan, &capture, &out, false, &options, &Progress::hidden())
+            decode::decode_to_dir(plan, &capture, &out, false, &options, &Progress::hidden())
                 .unwrap();
         assert_eq!(summary.lit_pixels, (width * height) as u64);
         files.push(std::fs::read(out.join(fsm_io::candidate_file::CANDIDATE_FILE_NAME)).unwrap());
