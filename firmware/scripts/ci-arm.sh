@@ -3,8 +3,9 @@
 # is missing, build the ARM ELF, cross-check its candidates against the host's decode under
 # QEMU (bit-identical, BFSM and two-group EFSM, 32 rows with interreflections, on the firmware's
 # own mirror scene and on the simulator's plane_mirror, with CLEAN and with the local-maximum
-# search), drive it with the host CLI over its UART and its Ethernet (`fsm upload`, `fsm camera
-# info`, `fsm camera scan`), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
+# search; the four baselines, phase shift, Micro Phase Shifting, Code Ensemble and line scanning,
+# on the mirror scene), drive it with the host CLI over its UART and its Ethernet (`fsm upload`,
+# `fsm camera info`, `fsm camera scan`; over Ethernet every method's plan), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
 # (console on UART1, scans over Ethernet, a panic that resets the SoC), check how it refuses bad
 # input, the determinism of its instruction counts, every failure path's exit code, the Rust
 # cross-check test, and (if defmt-print is installed) defmt logging.
@@ -87,7 +88,7 @@ fi
 # 2. The cross-check: Cortex-A9 candidates == host candidates, byte for byte.
 if FW_ELF="$ELF" "$S/crosscheck-arm.sh" --rows 32 --width 48 >crosscheck.txt 2>&1; then
     cat crosscheck.txt
-    ok "crosscheck-arm.sh: BFSM and EFSM (2 groups), 32 rows x 48 pixels, replay and protocol session, bit-identical"
+    ok "crosscheck-arm.sh: BFSM and EFSM (2 groups), 32 rows x 48 pixels, and PS, MPS, CE, LS (128 columns), 16 rows x 48 pixels, replay and protocol session, bit-identical"
 else
     cat crosscheck.txt
     bad "crosscheck-arm.sh"
@@ -95,7 +96,8 @@ fi
 
 # 2a. Rows of a real camera: 4096 pixels, decoded in slices (src/scan.rs), BFSM and two-group
 #     EFSM, replay and protocol session, bit-identical with the host's decode of the whole row.
-if FW_ELF="$ELF" "$S/crosscheck-arm.sh" --rows 2 --width 4096 >crosscheck-wide.txt 2>&1; then
+if FW_ELF="$ELF" "$S/crosscheck-arm.sh" --rows 2 --width 4096 --methods "bfsm efsm2" \
+    >crosscheck-wide.txt 2>&1; then
     grep -E '^(identical|ok)' crosscheck-wide.txt
     ok "crosscheck-arm.sh: rows of 4096 pixels (BFSM and EFSM 2 groups, 2 rows, decoded in slices), bit-identical"
 else
@@ -105,7 +107,7 @@ fi
 
 # 2b. The same cross-check on the project's light-transport simulator: `fsm simulate` renders
 #     plane_mirror (a diffuse plane lit directly and through a mirror) at 48 x 32 pixels, `fsm plan
-#     --wire` gives the 80-byte plan the firmware takes (built above with the workspace tests).
+#     --wire` gives the plan bytes the firmware takes (built above with the workspace tests).
 FSM="$TARGET_DIR/debug/fsm"
 
 # simulate PRESET DIR: plane_mirror at 48 x 32 pixels -> DIR/scan.dump and its wire plan DIR/plan.bin
@@ -118,7 +120,8 @@ simulate() {
 # these dumps (READY = 1 if they were made), its output in NAME.txt, reported as WHAT.
 crosscheck_dumps() {
     if [ "$1" = 1 ] && FW_ELF="$ELF" FW_DUMP_BFSM="$4" FW_PLAN_BFSM="$5" \
-        FW_DUMP_EFSM2="$6" FW_PLAN_EFSM2="$7" "$S/crosscheck-arm.sh" >"$2.txt" 2>&1; then
+        FW_DUMP_EFSM2="$6" FW_PLAN_EFSM2="$7" "$S/crosscheck-arm.sh" --methods "bfsm efsm2" \
+        >"$2.txt" 2>&1; then
         grep -E '^(identical|ok)' "$2.txt"
         ok "crosscheck-arm.sh $3: bit-identical"
     else
@@ -130,6 +133,17 @@ crosscheck_dumps() {
 sim_ok=1
 for p in paper-bfsm paper-efsm-2; do
     simulate "$p" "sim-$p" || sim_ok=0
+done
+# The baselines' plans for the simulator's 768-column projector, and plane_mirror through them
+# (sim-METHOD/), for the camera commands over Ethernet (2e).
+BASELINES="phase-shift micro-phase-shift code-ensemble line-scan"
+baselines_ok=1
+for m in $BASELINES; do
+    "$FSM" plan --method "$m" --projector-columns 768 --out "$m.toml" >/dev/null \
+        && "$FSM" simulate --scene plane_mirror --plan "$m.toml" --camera 48x32 \
+            --out "sim-$m" >/dev/null \
+        && "$FSM" plan --check "sim-$m/plan.toml" --wire "sim-$m/plan.bin" >/dev/null 2>&1 \
+        || baselines_ok=0
 done
 crosscheck_dumps "$sim_ok" crosscheck-sim \
     "on fsm simulate plane_mirror (paper BFSM and EFSM 2 groups, 32 rows x 48 pixels)" \
@@ -163,11 +177,12 @@ link_scan() {
         'BEGIN { printf "%s: 32 rows, %d bytes of rows in %.2f s: %.1f rows/s, %.0f kB/s\n", p, n, b - a, 32 / (b - a), n / 1000 / (b - a) }'
 }
 
-# upload_check DEVICE NAME: `fsm upload` of the BFSM plan on its own; the camera names the plan
-# by its fingerprint, and `fsm camera info` then reports that plan as loaded. Output in NAME-*.txt.
+# upload_check DEVICE NAME [PLAN]: `fsm upload` of PLAN (default: the BFSM plan) on its own; the
+# camera names the plan by its fingerprint, and `fsm camera info` then reports that plan as
+# loaded. Output in NAME-*.txt.
 upload_check() {
     local fp
-    "$FSM" upload --plan sim-paper-bfsm/plan.toml --device "$1" >"$2-upload.txt" 2>&1 \
+    "$FSM" upload --plan "${3:-sim-paper-bfsm/plan.toml}" --device "$1" >"$2-upload.txt" 2>&1 \
         && fp="$(sed -n 's/.*(fingerprint \([0-9a-f]*\)).*/\1/p' "$2-upload.txt")" && [ -n "$fp" ] \
         && "$FSM" camera info --device "$1" >"$2-loaded.txt" 2>&1 \
         && grep -q "^loaded plan *$fp\$" "$2-loaded.txt" \
@@ -243,6 +258,19 @@ for p in paper-bfsm paper-efsm-2; do
     else
         cat "net-$p.rate" 2>/dev/null || true
         bad "fsm camera scan over Ethernet, $p"
+    fi
+done
+# Every baseline's plan: uploaded (the camera acknowledges its fingerprint), then a scan of the
+# simulator's plane_mirror through it, compared with the host's decode byte for byte.
+for m in $BASELINES; do
+    if [ "$baselines_ok" = 1 ] && [ "$net_up" = 1 ] \
+        && fp="$(upload_check "$net_dev" "net-$m" "sim-$m/plan.toml")" \
+        && link_scan "$net_dev" "$m" "net-$m" >"net-$m.rate"; then
+        cat "net-$m.rate"
+        ok "fsm upload and fsm camera scan over Ethernet, $m (plan $fp, 32 rows x 48 pixels): candidates bit-identical"
+    else
+        cat "net-$m-upload.txt" "net-$m.rate" 2>/dev/null || true
+        bad "fsm upload and fsm camera scan over Ethernet, $m"
     fi
 done
 # A host that sends garbage gets an error frame (version 1, Response::Error = tag 6); one that

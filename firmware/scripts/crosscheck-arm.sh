@@ -1,25 +1,29 @@
 #!/usr/bin/env bash
 # The firmware cross-check: the candidate rows the Cortex-A9 firmware computes under QEMU must be
 # bit-identical to the host's decode of the same row dump (fsm-core on x86_64), whole files
-# (header + records) compared byte for byte, for a BFSM plan and a two-group EFSM plan, on a
-# scene with interreflections, whose truth the host's decode must match (`fsm-firmware truth`).
-# Identical files must hold every row (an external dump: at least one) and a lit pixel. Twice
-# per plan:
+# (header + records) compared byte for byte, for a BFSM plan, a two-group EFSM plan and the four
+# baselines the paper compares them with (phase shift, Micro Phase Shifting, Code Ensemble, line
+# scanning, on a 128-column projector), on a scene with interreflections, whose truth the host's
+# decode must match (`fsm-firmware truth`; a baseline, which sees one light per pixel, where the
+# mirror does not light the pixel, within 1 column). Identical files must hold every row (an
+# external dump: at least one) and a lit pixel. Twice per plan:
 #   1. replay: the row dump placed in RAM, the plan in its mailbox -> fw-candidates.bin;
 #   2. protocol: a recorded host session placed in RAM (plan upload, scan, every row, with one
 #      of each kind of bad input first) served by the device loop -> fw-link.bin, whose
 #      answers must be the expected ones (an error for each bad input) and whose candidate
 #      rows must again equal the host's.
 #
-# Usage: scripts/crosscheck-arm.sh [--rows N] [--width W] [--keep DIR]
+# Usage: scripts/crosscheck-arm.sh [--rows N] [--baseline-rows N] [--width W] [--methods LIST] [--keep DIR]
 #   --rows N    rows per dump (default 32)
+#   --baseline-rows N   rows per dump of a baseline (default 16)
 #   --width W   pixels per row (default 48; QEMU needs ~2 s per 1500 BFSM pixels)
+#   --methods LIST   plans to check (default "bfsm efsm2 ps mps ce ls")
 #   --keep DIR  keep dumps, plans and candidate files in DIR (default: a temporary directory)
 # Environment:
 #   FW_ELF             firmware ELF to run (default: build it with scripts/build-arm.sh)
-#   FW_DUMP_<P>, FW_PLAN_<P>   for P in BFSM, EFSM2: use this row dump and 80-byte plan file
-#                      instead of rendering the built-in mirror scene (e.g. the simulator's
-#                      plane_mirror dump)
+#   FW_DUMP_<P>, FW_PLAN_<P>   for P in BFSM, EFSM2, PS, MPS, CE, LS: use this row dump and plan
+#                      file (its wire bytes, `fsm plan --wire`) instead of rendering the built-in
+#                      mirror scene (e.g. the simulator's plane_mirror dump)
 #   QEMU_TIMEOUT       seconds per QEMU run (default 300)
 # Prints one line per check and ends with `N passed, M failed`; exit status 0 iff all passed.
 set -euo pipefail
@@ -27,14 +31,18 @@ set -euo pipefail
 FW_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 S="$FW_DIR/scripts"
 ROWS=32
+BASELINE_ROWS=16
 WIDTH=48
+METHODS="bfsm efsm2 ps mps ce ls"
 KEEP=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --rows) ROWS="$2"; shift ;;
+        --baseline-rows) BASELINE_ROWS="$2"; shift ;;
         --width) WIDTH="$2"; shift ;;
+        --methods) METHODS="$2"; shift ;;
         --keep) KEEP="$2"; shift ;;
-        *) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2 ;;
+        *) sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2 ;;
     esac
     shift
 done
@@ -71,16 +79,22 @@ cp "$FW_ELF" "$WORK/fsm-firmware.elf"
 ELF="$WORK/fsm-firmware.elf"
 
 cd "$WORK"
-for P in BFSM EFSM2; do
-    p="$(echo "$P" | tr 'A-Z' 'a-z')"
+for p in $METHODS; do
+    P="$(echo "$p" | tr 'a-z' 'A-Z')"
     dump_var="FW_DUMP_$P"
     plan_var="FW_PLAN_$P"
+    # The baselines see one light per pixel; Code Ensemble's columns are whole codewords.
+    case "$p" in
+        bfsm|efsm1|efsm2) rows=$ROWS; tolerance=0.5 ;;
+        ps|mps|ce|ls) rows=$BASELINE_ROWS; tolerance=1 ;;
+        *) echo "crosscheck-arm: unknown method $p (bfsm efsm1 efsm2 ps mps ce ls)" >&2; exit 2 ;;
+    esac
     if [ -n "${!dump_var:-}" ]; then
         cp "${!dump_var}" "$p.dump"
-        cp "${!plan_var:?$plan_var must name the 80-byte plan file of the dump}" "$p.plan"
+        cp "${!plan_var:?$plan_var must name the plan file (wire bytes) of the dump}" "$p.plan"
         echo "$p: dump ${!dump_var}"
     else
-        "$TOOL" scene --plan "$p" --width "$WIDTH" --rows "$ROWS" --dump "$p.dump" --plan-out "$p.plan"
+        "$TOOL" scene --plan "$p" --width "$WIDTH" --rows "$rows" --dump "$p.dump" --plan-out "$p.plan"
     fi
     "$TOOL" decode --plan "$p.plan" --dump "$p.dump" --out "$p.host.cand"
     # The host's decode is held to the scene's truth: the firmware is compared with the host,
@@ -88,12 +102,13 @@ for P in BFSM EFSM2; do
     if [ -n "${!dump_var:-}" ]; then
         echo "$p: external dump, no truth to compare with"
         min_rows=1
-    elif "$TOOL" truth --plan "$p.plan" --width "$WIDTH" --rows "$ROWS" --candidates "$p.host.cand"; then
+    elif "$TOOL" truth --plan "$p.plan" --width "$WIDTH" --rows "$rows" --candidates "$p.host.cand" \
+        --tolerance "$tolerance"; then
         ok "$p: the host's decode matches the scene's truth"
-        min_rows=$ROWS
+        min_rows=$rows
     else
         bad "$p: the host's decode does not match the scene's truth"
-        min_rows=$ROWS
+        min_rows=$rows
     fi
     rm -f fw-candidates.bin
     set +e
@@ -122,7 +137,7 @@ for P in BFSM EFSM2; do
     if [ "$rc" = 0 ] && [ -f fw-link.bin ] \
         && "$TOOL" replies --plan "$p.plan" --dump "$p.dump" --in fw-link.bin --out "$p.link.cand" --bad-input yes \
         && "$TOOL" compare "$p.host.cand" "$p.link.cand" --min-rows "$min_rows"; then
-        ok "$p: protocol session on the Cortex-A9: 5 bad inputs refused with errors, then candidates bit-identical"
+        ok "$p: protocol session on the Cortex-A9: 6 bad inputs refused with errors, then candidates bit-identical"
     else
         bad "$p: protocol session (firmware exit code $rc)"
     fi

@@ -3,8 +3,9 @@
 #
 # Usage: scripts/run-qemu.sh [options] <elf> [input-file]
 #        scripts/run-qemu.sh --board [options] <elf | raw binary>
-#   --plan FILE      put a scan plan (its 80 canonical bytes) into the plan mailbox at
-#                    0x03FFFF08 with the descriptor {"PLAN", 80} at 0x03FFFF00 (src/layout.rs)
+#   --plan FILE      put a plan of any method (its canonical bytes: 80 for FSM, 32 or 96 for a
+#                    baseline) into the plan mailbox at 0x03FFFF08 with the descriptor
+#                    {"PLAN", length} at 0x03FFFF00 (src/layout.rs)
 #   --icount         instruction-count mode: `-icount shift=$ICOUNT_SHIFT` (default 4) and tell
 #                    the firmware the shift (descriptor "ICNT" at 0x03FFFFE8), so that it prints
 #                    exact instruction counts (`BENCH ... instructions=N`). See src/icount.rs.
@@ -77,7 +78,7 @@ REBOOT=0
 DEFMT_FILE=""
 WORDS=()
 
-usage() { sed -n '2,59p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,60p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -211,10 +212,14 @@ fi
 
 if [ -n "$PLAN" ]; then
     [ -f "$PLAN" ] || { echo "run-qemu: no such plan file: $PLAN" >&2; exit 2; }
-    [ "$(stat -c %s "$PLAN")" = 80 ] || { echo "run-qemu: plan file $PLAN is not 80 bytes (fsm plan --wire)" >&2; exit 2; }
+    plan_len="$(stat -c %s "$PLAN")"
+    case "$plan_len" in
+        80|32|96) ;;
+        *) echo "run-qemu: plan file $PLAN is $plan_len bytes, not a plan's 80 (FSM), 32 or 96 (baselines) (fsm plan --wire)" >&2; exit 2 ;;
+    esac
     case "$PLAN" in *,*) echo "run-qemu: plan path must not contain a comma" >&2; exit 2 ;; esac
     args+=(-device "loader,file=$PLAN,addr=$PLAN_BYTES,force-raw=on")
-    mapfile -t -O "${#args[@]}" args < <(word "$PLAN_DESC" "$MAGIC_PLAN"; word "$((0x03ffff04))" 80)
+    mapfile -t -O "${#args[@]}" args < <(word "$PLAN_DESC" "$MAGIC_PLAN"; word "$((0x03ffff04))" "$plan_len")
 fi
 
 if [ "$ICOUNT" = 1 ]; then

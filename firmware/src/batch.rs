@@ -8,7 +8,7 @@ use core::fmt;
 
 use fsm_core::wire::row_dump::RowDumpHeader;
 use fsm_core::wire::HEADER_LEN;
-use fsm_core::{Decoder, DecoderError, ScanPlan};
+use fsm_core::{MethodDecoder, MethodDecoderError, MethodPlan};
 
 use crate::scan::{self, DumpError, Probe, RowBuffers, Scan};
 
@@ -31,7 +31,7 @@ impl Sink for Vec<u8> {
 
 /// The buffers a batch scan needs.
 pub struct BatchMemory<'a> {
-    /// `Decoder::tables_len` floats or more.
+    /// `MethodPlan::tables_len` floats or more (none for a baseline).
     pub tables: &'a mut [f32],
     /// The row's buffers.
     pub row: RowBuffers<'a>,
@@ -56,7 +56,7 @@ pub enum BatchError<E> {
     /// The dump is not one this plan and this camera can scan.
     Dump(DumpError),
     /// The decoder could not be built.
-    Decoder(DecoderError),
+    Decoder(MethodDecoderError),
     /// The sink failed.
     Sink(E),
 }
@@ -71,14 +71,16 @@ impl<E: fmt::Debug> fmt::Display for BatchError<E> {
     }
 }
 
-/// Decodes every record of `dump` with `plan` and writes the candidate file to `sink`.
+/// Decodes every record of `dump` with `plan` (any method's) and writes the candidate file to
+/// `sink`.
 pub fn scan_dump<S: Sink, P: Probe>(
-    plan: &ScanPlan,
+    plan: impl Into<MethodPlan>,
     dump: &[u8],
     memory: BatchMemory<'_>,
     sink: &mut S,
     probe: &mut P,
 ) -> Result<BatchSummary, BatchError<S::Error>> {
+    let plan: MethodPlan = plan.into();
     let dump_error = |e| BatchError::Dump(e);
     let header = RowDumpHeader::decode(dump).map_err(|e| dump_error(DumpError::Wire(e)))?;
     let scan = Scan::of_dump(plan, &header).map_err(dump_error)?;
@@ -95,7 +97,7 @@ pub fn scan_dump<S: Sink, P: Probe>(
         row: mut buffers,
         record,
     } = memory;
-    let decoder = Decoder::new(plan, tables).map_err(BatchError::Decoder)?;
+    let decoder = MethodDecoder::new(&plan, tables).map_err(BatchError::Decoder)?;
     probe.tables_built();
     sink.write(&scan.candidates.encode())
         .map_err(BatchError::Sink)?;

@@ -3,7 +3,10 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use fsm_core::{GroupCount, ScanPlan};
+use fsm_core::{
+    CodeEnsemblePlan, GroupCount, LineScanPlan, MethodPlan, MicroPhaseShiftPlan, PhaseShiftPlan,
+    ScanPlan,
+};
 use fsm_firmware::batch::{self, BatchMemory};
 use fsm_firmware::emulator;
 use fsm_firmware::limits;
@@ -17,7 +20,10 @@ fn usage() -> &'static str {
     "usage: fsm-firmware <command> [options]
 
 commands (PLAN is bfsm, efsm1, efsm2, one of them with -fast (the paper's local-maximum
-search instead of CLEAN, e.g. efsm1-fast), or an 80-byte plan file written by `scene --plan-out`):
+search instead of CLEAN, e.g. efsm1-fast); ps, mps, ce or ls, a baseline on a projector of
+128 columns (phase shift + Gray code, Micro Phase Shifting with 7 periods, Code Ensemble, line
+scanning); or a plan file of any method's canonical bytes, written by `scene --plan-out` or
+`fsm plan --wire`):
   scene --plan PLAN --width W --rows H --dump OUT [--plan-out FILE]
         render the mirror scene (interreflections) as a row dump
   decode --plan PLAN --dump DUMP --out CANDIDATES
@@ -33,7 +39,9 @@ search instead of CLEAN, e.g. efsm1-fast), or an 80-byte plan file written by `s
         check a candidate file of the mirror scene `scene` renders against its truth: every
         row present, the direct (and mirrored) light of the lit pixels within C columns
         (default 0.5; 99% of direct, 95% of mirrored lights), at most 10% of the lit pixels
-        flagged as mixtures, no candidate in shadow (exit 1 otherwise)
+        flagged as mixtures, no candidate in shadow (exit 1 otherwise); a baseline, which
+        sees one light per pixel, is held to 95% of the pixels the mirror does not light
+        and 95% of the shadow
   compare EXPECTED ACTUAL [--min-rows N] [--min-lit N]
         byte-compare two candidate files; on a difference, name its row and pixel (exit 1);
         identical files must also hold N rows and N pixels with a candidate (default 1 each)
@@ -132,9 +140,12 @@ impl<'a> Options<'a> {
     }
 }
 
-/// A preset name or an 80-byte plan file. A preset name with `-fast` decodes with the paper's
+/// Projector columns of the baseline presets: small, so that QEMU runs them in seconds.
+const BASELINE_COLUMNS: u16 = 128;
+
+/// A preset name or a plan file. An FSM preset name with `-fast` decodes with the paper's
 /// local-maximum search (`ScanPlan::with_local_maxima`) instead of CLEAN.
-fn plan(spec: &str) -> Result<ScanPlan, Failure> {
+fn plan(spec: &str) -> Result<MethodPlan, Failure> {
     let (preset, fast) = match spec.strip_suffix("-fast") {
         Some(preset) => (preset, true),
         None => (spec, false),
@@ -143,24 +154,29 @@ fn plan(spec: &str) -> Result<ScanPlan, Failure> {
         "bfsm" => ScanPlan::paper_bfsm(),
         "efsm1" => ScanPlan::paper_efsm(GroupCount::One),
         "efsm2" => ScanPlan::paper_efsm(GroupCount::Two),
+        _ if fast => return plan_file(spec),
+        "ps" => return Ok(PhaseShiftPlan::for_projector(BASELINE_COLUMNS).into()),
+        "mps" => return Ok(MicroPhaseShiftPlan::spread(BASELINE_COLUMNS, 16.0, 4.0, 7).into()),
+        "ce" => return Ok(CodeEnsemblePlan::for_projector(BASELINE_COLUMNS).into()),
+        "ls" => {
+            let plan = LineScanPlan {
+                projector_columns: BASELINE_COLUMNS,
+                ..LineScanPlan::paper()
+            };
+            return Ok(plan.into());
+        }
         _ => return plan_file(spec),
     };
     if fast {
         plan = plan.with_local_maxima();
     }
-    Ok(plan)
+    Ok(plan.into())
 }
 
-/// An 80-byte plan file.
-fn plan_file(path: &str) -> Result<ScanPlan, Failure> {
+/// A plan file: any method's canonical bytes (`MethodPlan::to_bytes`).
+fn plan_file(path: &str) -> Result<MethodPlan, Failure> {
     let bytes = fs::read(path).map_err(|e| err(format!("plan {path}: {e}")))?;
-    if bytes.len() != fsm_core::wire::plan::PLAN_LEN {
-        return Err(err(format!(
-            "plan {path}: {} bytes, a plan file holds the 64 canonical bytes",
-            bytes.len()
-        )));
-    }
-    ScanPlan::from_bytes(&bytes).map_err(|e| err(format!("plan {path}: {e}")))
+    MethodPlan::from_bytes(&bytes).map_err(|e| err(format!("plan {path}: {e}")))
 }
 
 fn read(path: &str) -> Result<Vec<u8>, Failure> {
@@ -198,14 +214,15 @@ fn run(args: &[String]) -> Result<(), Failure> {
             if width == 0 || rows == 0 {
                 return Err(Failure::Usage("--width and --rows must be positive".into()));
             }
-            let scene = MirrorScene::for_plan(&plan, width, rows);
-            write(o.need("dump")?, &scene.dump(&plan))?;
+            let scene = MirrorScene::for_plan(plan, width, rows);
+            write(o.need("dump")?, &scene.dump(plan))?;
             if let Some(p) = o.get("plan-out") {
                 write(p, &plan.to_bytes())?;
             }
             println!(
-                "scene: {width} x {rows} pixels, {} frames per row, plan {:016x}",
-                plan.sequence_len(),
+                "scene: {width} x {rows} pixels, {} plan, {} frames per row, plan {:016x}",
+                plan.name(),
+                plan.frame_count(),
                 plan.fingerprint()
             );
             Ok(())
@@ -216,8 +233,7 @@ fn run(args: &[String]) -> Result<(), Failure> {
             let dump_path = o.need("dump")?;
             let dump = read(dump_path)?;
             let out = if command == "decode" {
-                reference::decode_dump(&plan, &dump)
-                    .map_err(|e| err(format!("{dump_path}: {e}")))?
+                reference::decode_dump(plan, &dump).map_err(|e| err(format!("{dump_path}: {e}")))?
             } else {
                 let mut storage = HostStorage::default();
                 let m = storage.memory();
@@ -231,7 +247,7 @@ fn run(args: &[String]) -> Result<(), Failure> {
                     record: m.record,
                 };
                 let mut out = Vec::new();
-                batch::scan_dump(&plan, &dump, memory, &mut out, &mut NoProbe)
+                batch::scan_dump(plan, &dump, memory, &mut out, &mut NoProbe)
                     .map_err(|e| err(format!("{dump_path}: {e}")))?;
                 out
             };
@@ -256,7 +272,7 @@ fn run(args: &[String]) -> Result<(), Failure> {
                 Some(v) => return Err(Failure::Usage(format!("--bad-input {v}: yes or no"))),
             };
             let script =
-                session::script(&plan, &dump, bad).map_err(|e| err(format!("{dump_path}: {e}")))?;
+                session::script(plan, &dump, bad).map_err(|e| err(format!("{dump_path}: {e}")))?;
             if command == "session" {
                 write(o.need("out")?, &script.requests)?;
                 println!(
@@ -300,16 +316,30 @@ fn run(args: &[String]) -> Result<(), Failure> {
                     plan.fingerprint()
                 )));
             }
-            let scene = MirrorScene::for_plan(&plan, width, rows);
+            let scene = MirrorScene::for_plan(plan, width, rows);
             let check = scene
                 .check(&bytes, tolerance)
                 .map_err(|e| err(format!("{path}: {e}")))?;
-            if check.passes(rows) {
+            let (passes, wanted) = match plan {
+                MethodPlan::Fsm(_) => (
+                    check.passes(rows),
+                    "99% of direct and 95% of mirrored lights found, at most 10% flagged",
+                ),
+                _ => (
+                    check.passes_single_light(rows),
+                    "the light of 95% of the pixels lit once found (a baseline)",
+                ),
+            };
+            let shadow = match plan {
+                MethodPlan::Fsm(_) => "shadow dark",
+                _ => "95% of the shadow dark",
+            };
+            if passes {
                 println!("truth: {path}: {check} (within {tolerance} column)");
                 Ok(())
             } else {
                 Err(err(format!(
-                    "{path}: not the scene's truth: {check} (within {tolerance} column; expected {rows} rows, 99% of direct and 95% of mirrored lights found, at most 10% flagged, shadow dark)"
+                    "{path}: not the scene's truth: {check} (within {tolerance} column; expected {rows} rows, {wanted}, {shadow})"
                 )))
             }
         }

@@ -1,5 +1,8 @@
 //! The camera's side of the link: requests in, one response each out (`fsm-protocol`).
 //!
+//! The camera takes a plan of any method (`fsm_core::MethodPlan`: BFSM, EFSM or a baseline
+//! the paper compares them with) and decodes its rows into the same candidate records.
+//!
 //! [`Device::serve`] reads bytes from a [`Link`] until it closes, answers every frame, and
 //! never gives up on bad input: a damaged frame, a plan whose fingerprint does not match its
 //! bytes, a row of the wrong length or with a bad CRC is answered with
@@ -8,8 +11,8 @@
 
 use core::fmt::Write as _;
 
-use fsm_core::wire::plan::PLAN_LEN;
-use fsm_core::{Decoder, ScanPlan};
+use fsm_core::methods::wire::PLAN_LENGTHS;
+use fsm_core::{MethodDecoder, MethodPlan};
 use fsm_protocol::frame::{self, FrameReader};
 use fsm_protocol::{
     DeviceError, DeviceInfo, DeviceState, Request, Response, RowOutput, PROTOCOL_VERSION,
@@ -90,7 +93,7 @@ pub struct SessionReport {
 /// The camera: its buffers and its loaded plan.
 pub struct Device<'m> {
     memory: Memory<'m>,
-    plan: Option<ScanPlan>,
+    plan: Option<MethodPlan>,
 }
 
 /// Sizes of the buffers, for checks and for [`DeviceInfo`].
@@ -107,7 +110,7 @@ struct Capacity {
 enum Outcome<'r> {
     Reply(Response<'r>),
     /// A valid plan to load; the reply follows once its tables are built.
-    Load(ScanPlan),
+    Load(MethodPlan),
 }
 
 impl<'m> Device<'m> {
@@ -117,7 +120,7 @@ impl<'m> Device<'m> {
     }
 
     /// The loaded plan.
-    pub fn plan(&self) -> Option<&ScanPlan> {
+    pub fn plan(&self) -> Option<&MethodPlan> {
         self.plan.as_ref()
     }
 
@@ -163,12 +166,12 @@ impl<'m> Device<'m> {
             // The decoder of the loaded plan borrows the tables until the next plan is loaded.
             // Tables already built for this plan (an earlier connection) are reused as they are.
             if let Some(p) = *plan {
-                if Decoder::from_tables(&p, &tables[..]).is_err() {
-                    let _ = Decoder::build_tables(&p, &mut tables[..]);
+                if MethodDecoder::from_tables(&p, &tables[..]).is_err() {
+                    let _ = p.build_tables(&mut tables[..]);
                 }
             }
             let decoder = match *plan {
-                Some(p) => match Decoder::from_tables(&p, &tables[..]) {
+                Some(p) => match MethodDecoder::from_tables(&p, &tables[..]) {
                     Ok(d) => Some(d),
                     Err(e) => {
                         // Cannot happen for a plan that passed `check_plan`; refuse it anyway.
@@ -249,7 +252,7 @@ impl<'m> Device<'m> {
 /// Room for an error message from `fsm_core`.
 type Text = heapless::String<192>;
 
-fn info(capacity: &Capacity, plan: Option<&ScanPlan>) -> DeviceInfo {
+fn info(capacity: &Capacity, plan: Option<&MethodPlan>) -> DeviceInfo {
     DeviceInfo {
         protocol_version: PROTOCOL_VERSION,
         max_width: capacity.width as u32,
@@ -257,7 +260,7 @@ fn info(capacity: &Capacity, plan: Option<&ScanPlan>) -> DeviceInfo {
         max_table_floats: capacity.tables as u32,
         candidate_capacity: CANDIDATE_CAPACITY as u16,
         max_frame_len: capacity.frame as u32,
-        plan_fingerprint: plan.map(ScanPlan::fingerprint),
+        plan_fingerprint: plan.map(MethodPlan::fingerprint),
     }
 }
 
@@ -269,7 +272,7 @@ struct Session {
     answered: u32,
 }
 
-fn state(decoder: Option<&Decoder<'_>>, session: &Option<Session>) -> DeviceState {
+fn state(decoder: Option<&MethodDecoder<'_>>, session: &Option<Session>) -> DeviceState {
     match (decoder, session) {
         (None, _) => DeviceState::NoPlan,
         (Some(_), None) => DeviceState::Idle,
@@ -277,20 +280,21 @@ fn state(decoder: Option<&Decoder<'_>>, session: &Option<Session>) -> DeviceStat
     }
 }
 
-/// Checks uploaded plan bytes: length, validity, canonical form, the stated fingerprint, and
-/// that the camera's buffers hold its tables.
+/// Checks uploaded plan bytes of any method: length, validity, canonical form, the stated
+/// fingerprint, and that the camera's buffers hold its tables and scratch (a baseline needs
+/// neither).
 fn check_plan<'r>(
     bytes: &[u8],
     stated: u64,
     capacity: &Capacity,
     text: &'r mut Text,
-) -> Result<ScanPlan, DeviceError<'r>> {
-    if bytes.len() != PLAN_LEN {
+) -> Result<MethodPlan, DeviceError<'r>> {
+    if !PLAN_LENGTHS.contains(&bytes.len()) {
         return Err(DeviceError::PlanLength {
             got: bytes.len() as u32,
         });
     }
-    let plan = match ScanPlan::from_bytes(bytes) {
+    let plan = match MethodPlan::from_bytes(bytes) {
         Ok(p) => p,
         Err(e) => {
             let _ = write!(text, "{e}");
@@ -299,25 +303,25 @@ fn check_plan<'r>(
     };
     if plan.to_bytes()[..] != bytes[..] {
         return Err(DeviceError::PlanInvalid {
-            reason: "scan plan: bytes are not in canonical form",
+            reason: "plan: bytes are not in canonical form",
         });
     }
     let computed = plan.fingerprint();
     if computed != stated {
         return Err(DeviceError::PlanFingerprint { stated, computed });
     }
-    let tables = Decoder::tables_len(&plan);
+    let tables = plan.tables_len();
     if tables > capacity.tables {
         return Err(DeviceError::PlanTooLarge {
             table_floats: tables as u32,
             max: capacity.tables as u32,
         });
     }
-    let scratch = Decoder::scratch_len_lanes::<LANES>(&plan);
+    let scratch = plan.scratch_len_lanes::<LANES>();
     if scratch > capacity.scratch {
         let _ = write!(
             text,
-            "scan plan: decoder scratch of {scratch} floats, the camera has {}",
+            "plan: decoder scratch of {scratch} floats, the camera has {}",
             capacity.scratch
         );
         return Err(DeviceError::PlanInvalid { reason: text });
@@ -373,7 +377,7 @@ fn row_error<'r>(e: RowFailure, text: &'r mut Text) -> DeviceError<'r> {
 
 fn handle<'r>(
     request: Request<'_>,
-    decoder: Option<&Decoder<'_>>,
+    decoder: Option<&MethodDecoder<'_>>,
     session: &mut Option<Session>,
     capacity: &Capacity,
     work: &mut RowBuffers<'_>,
@@ -386,7 +390,10 @@ fn handle<'r>(
         state: state(decoder, session),
     };
     match request {
-        Request::Hello => Outcome::Reply(Response::Info(info(capacity, decoder.map(|d| d.plan())))),
+        Request::Hello => {
+            let plan = decoder.map(MethodDecoder::plan);
+            Outcome::Reply(Response::Info(info(capacity, plan.as_ref())))
+        }
         Request::UploadPlan { plan, fingerprint } => {
             if session.is_some() {
                 return refuse(wrong_state);
@@ -410,7 +417,7 @@ fn handle<'r>(
             }
             let too_large = DeviceError::ScanTooLarge {
                 width: spec.width,
-                frames: plan.sequence_len() as u32,
+                frames: plan.frame_count() as u32,
                 max_width: capacity.width as u32,
                 max_row_samples: capacity.samples as u32,
             };
@@ -490,7 +497,7 @@ fn send<L: Link>(link: &mut L, tx: &mut [u8], response: &Response<'_>) -> Result
 mod tests {
     use super::*;
     use crate::memory::HostStorage;
-    use fsm_core::GroupCount;
+    use fsm_core::{Decoder, GroupCount, ScanPlan};
     use fsm_protocol::frame::FrameReader;
 
     /// Answers of a device with `tables` floats of table memory to `requests`.

@@ -19,18 +19,19 @@ pub const INPUT_BASE: usize = 0x0400_0000;
 /// Largest input that fits below the end of QEMU's default 128 MiB of DDR.
 pub const INPUT_MAX_LEN: usize = 0x0400_0000;
 
-/// Address of the plan descriptor: `u32` magic [`PLAN_MAGIC`], then `u32` length (80, `PLAN_LEN`), then
-/// the plan's canonical bytes (`ScanPlan::to_bytes`) at [`PLAN_BYTES_ADDR`]. Written by
-/// `scripts/run-qemu.sh --plan <file>`.
+/// Address of the plan descriptor: `u32` magic [`PLAN_MAGIC`], then `u32` length (80 for an FSM
+/// plan, 32 or 96 for a baseline's), then the plan's canonical bytes (`MethodPlan::to_bytes`)
+/// at [`PLAN_BYTES_ADDR`]. Written by `scripts/run-qemu.sh --plan <file>`.
 pub const PLAN_DESC_ADDR: usize = 0x03FF_FF00;
 /// Where the plan bytes start.
 pub const PLAN_BYTES_ADDR: usize = PLAN_DESC_ADDR + 8;
 /// "PLAN" as a little-endian `u32`.
 pub const PLAN_MAGIC: u32 = u32::from_le_bytes(*b"PLAN");
 
-/// The plan length from a descriptor, if valid.
+/// The plan length from a descriptor, if valid: a length some method's plan has.
 pub fn plan_len_from_descriptor(magic: u32, len: u32) -> Option<usize> {
-    (magic == PLAN_MAGIC && len as usize == fsm_core::wire::plan::PLAN_LEN).then_some(len as usize)
+    let lens = fsm_core::methods::wire::PLAN_LENGTHS;
+    (magic == PLAN_MAGIC && lens.contains(&(len as usize))).then_some(len as usize)
 }
 
 /// The plan bytes that QEMU's loader placed in the mailbox, if a valid descriptor is present.
@@ -221,7 +222,7 @@ pub fn net() -> Option<NetConfig> {
 
 const _: () = assert!(
     RAM_END <= PLAN_DESC_ADDR
-        && PLAN_BYTES_ADDR + fsm_core::wire::plan::PLAN_LEN <= NET_DESC_ADDR
+        && PLAN_BYTES_ADDR + fsm_core::methods::wire::MAX_PLAN_LEN <= NET_DESC_ADDR
         && NET_DESC_ADDR + 20 <= UART_DESC_ADDR
         && UART_DESC_ADDR + 8 <= SELFTEST_DESC_ADDR
 );
@@ -319,7 +320,10 @@ mod tests {
     fn plan_descriptor() {
         assert_eq!(PLAN_MAGIC, 0x4E41_4C50);
         assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 80), Some(80));
+        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 32), Some(32));
+        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 96), Some(96));
         assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 64), None);
+        assert_eq!(plan_len_from_descriptor(PLAN_MAGIC, 97), None);
         assert_eq!(plan_len_from_descriptor(INPUT_MAGIC, 80), None);
     }
 

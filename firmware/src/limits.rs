@@ -3,7 +3,9 @@
 //! Every buffer is sized here, at compile time; nothing is allocated at run time. The camera
 //! accepts:
 //!
-//! - **any valid plan whose decoder tables fit [`MAX_TABLE_FLOATS`]** (6 MiB): the paper's BFSM
+//! - **any valid plan of any method whose decoder tables fit [`MAX_TABLE_FLOATS`]** (6 MiB; the
+//!   baselines, phase shift, Micro Phase Shifting, Code Ensemble and line scanning, need no
+//!   tables and no scratch, only room for their rows, checked the same way): the paper's BFSM
 //!   plan needs 184,320 floats, its EFSM plans (cB 64) 19,328; the largest valid plan found by
 //!   a scan over power-of-two transforms and periods (BFSM, 8192 columns, N 4096, Hann window)
 //!   1,445,888. A plan that needs more is refused (`DeviceError::PlanTooLarge`);

@@ -27,7 +27,7 @@ mod fw {
     use core::fmt;
     use core::ptr::addr_of_mut;
 
-    use fsm_core::{Method, ScanPlan};
+    use fsm_core::{Method, MethodPlan};
     use fsm_firmware::arm::cpu::global_timer_ticks;
     use fsm_firmware::arm::cpu::QEMU_NS_PER_GTIMER_TICK;
     use fsm_firmware::arm::gem::{Gem, GemConfig};
@@ -232,11 +232,22 @@ mod fw {
     }
 
     /// A short description of a plan for the log.
-    struct PlanName<'a>(&'a ScanPlan);
+    struct PlanName<'a>(&'a MethodPlan);
 
     impl fmt::Display for PlanName<'_> {
         fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            let p = self.0;
+            let p = match self.0 {
+                MethodPlan::Fsm(p) => p,
+                other => {
+                    return write!(
+                        f,
+                        "{} cmax={} frames={}",
+                        other.name(),
+                        other.projector_columns(),
+                        other.frame_count()
+                    )
+                }
+            };
             match p.method {
                 Method::Bfsm => write!(f, "bfsm")?,
                 Method::Efsm(b) => write!(f, "efsm-cB{}-groups{}", b.block_width, p.group_count())?,
@@ -335,7 +346,7 @@ mod fw {
 
     /// Scans the dump into `path`; returns rows and bytes or exits with a message.
     fn scan_to<P: Probe>(
-        plan: &ScanPlan,
+        plan: &MethodPlan,
         dump: &[u8],
         storage: &mut Storage,
         path: &str,
@@ -357,7 +368,7 @@ mod fw {
         }
     }
 
-    fn run_dump(plan: &ScanPlan, dump: &[u8], storage: &mut Storage, shift: Option<u32>) -> ! {
+    fn run_dump(plan: &MethodPlan, dump: &[u8], storage: &mut Storage, shift: Option<u32>) -> ! {
         hprintln!(
             "PLAN {} fingerprint={:016x}",
             PlanName(plan),
@@ -367,7 +378,7 @@ mod fw {
         defmt::info!(
             "plan {=u64:#018x} accepted, {=usize} frames per row",
             plan.fingerprint(),
-            plan.sequence_len()
+            plan.frame_count()
         );
         let summary = match shift {
             None => scan_to(plan, dump, storage, PART_PATH, &mut NoProbe),
@@ -588,7 +599,7 @@ mod fw {
             }
             (Some(dump), Some(plan_bytes)) if is_dump(dump) => {
                 hprintln!("INPUT row dump, {} bytes", dump.len());
-                match ScanPlan::from_bytes(plan_bytes) {
+                match MethodPlan::from_bytes(plan_bytes) {
                     Ok(plan) => run_dump(&plan, dump, storage, shift),
                     Err(e) => {
                         hprintln!("ERROR: plan mailbox: {}", e);
@@ -598,7 +609,7 @@ mod fw {
             }
             (Some(_), None) => {
                 hprintln!(
-                    "ERROR: a row dump without a plan (put the plan's 80 bytes in the mailbox at {:#010x}: run-qemu.sh --plan)",
+                    "ERROR: a row dump without a plan (put the plan's bytes in the mailbox at {:#010x}: run-qemu.sh --plan)",
                     layout::PLAN_DESC_ADDR
                 );
                 stop(EXIT_BAD_INPUT)

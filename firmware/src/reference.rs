@@ -10,15 +10,17 @@ use std::fmt;
 use fsm_core::wire::candidates::{self, CandidateHeader};
 use fsm_core::wire::row_dump::{self, RowDumpHeader};
 use fsm_core::wire::{WireError, HEADER_LEN};
-use fsm_core::{Decoder, PixelCandidates, Row, ScanPlan};
+use fsm_core::{MethodDecoder, MethodPlan, PixelCandidates, Row};
 
 use crate::limits::CANDIDATE_CAPACITY;
 
-/// The candidate file of `dump` decoded on the host: the header, then one record per row in
-/// the dump's order.
-pub fn decode_dump(plan: &ScanPlan, dump: &[u8]) -> Result<Vec<u8>, String> {
+/// The candidate file of `dump` decoded on the host with `plan` (any method's: FSM's
+/// `Decoder::decode_row`, a baseline's `PixelDecoder::decode_row`, whole rows at once): the
+/// header, then one record per row in the dump's order.
+pub fn decode_dump(plan: impl Into<MethodPlan>, dump: &[u8]) -> Result<Vec<u8>, String> {
+    let plan: MethodPlan = plan.into();
     let header = RowDumpHeader::decode(dump).map_err(|e| e.to_string())?;
-    header.check_plan(plan).map_err(|e| e.to_string())?;
+    plan.check_row_dump(&header).map_err(|e| e.to_string())?;
     let record_len = header.record_len().ok_or("row dump: rows too large")?;
     let body = &dump[HEADER_LEN..];
     if !body.len().is_multiple_of(record_len) {
@@ -27,9 +29,9 @@ pub fn decode_dump(plan: &ScanPlan, dump: &[u8]) -> Result<Vec<u8>, String> {
             body.len()
         ));
     }
-    let mut tables = vec![0.0; Decoder::tables_len(plan)];
-    let decoder = Decoder::new(plan, &mut tables).map_err(|e| e.to_string())?;
-    let mut scratch = vec![0.0; Decoder::scratch_len(plan)];
+    let mut tables = vec![0.0; plan.tables_len()];
+    let decoder = MethodDecoder::new(&plan, &mut tables).map_err(|e| e.to_string())?;
+    let mut scratch = vec![0.0; plan.scratch_len_lanes::<{ fsm_core::decoder::MAX_LANES }>()];
     let width = header.width as usize;
     let mut samples = vec![0u16; header.samples_per_row()];
     let mut pixels = vec![PixelCandidates::<CANDIDATE_CAPACITY>::new(); width];
@@ -293,12 +295,13 @@ mod tests {
     use super::*;
     use crate::scene::MirrorScene;
     use fsm_core::GroupCount;
+    use fsm_core::ScanPlan;
 
     #[test]
     fn compare_names_the_first_difference() {
         let plan = ScanPlan::paper_efsm(GroupCount::Two);
-        let dump = MirrorScene::for_plan(&plan, 16, 3).dump(&plan);
-        let a = decode_dump(&plan, &dump).unwrap();
+        let dump = MirrorScene::for_plan(plan, 16, 3).dump(plan);
+        let a = decode_dump(plan, &dump).unwrap();
         assert_eq!(compare(&a, &a), Ok(()));
         let c = census(&a).unwrap();
         assert_eq!(c.rows, 3);

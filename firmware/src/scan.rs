@@ -1,8 +1,9 @@
 //! The loop body: one row-dump record in, that row's candidate record out.
 //!
 //! A thin layer over `fsm_core`: the record is checked by `wire::row_dump::decode_record`,
-//! unpacked and decoded slice by slice of pixels (`Decoder::decode_row_lanes`: the decoder is
-//! per pixel, so a slice's candidates are the whole row's), and packed by
+//! unpacked and decoded slice by slice of pixels (`MethodDecoder::decode_row_lanes`: every
+//! method's decoder is per pixel, FSM's and the baselines' alike, so a slice's candidates are
+//! the whole row's), and packed by
 //! `wire::candidates::encode_record`, so the bytes are the ones `fsm decode` writes on the host.
 //! Only a slice's samples are ever unpacked ([`crate::limits::SLICE_SAMPLES`]): a 4096-pixel BFSM
 //! row needs its 6.3 MB record, not that again as samples.
@@ -12,7 +13,7 @@ use core::fmt;
 use fsm_core::wire::candidates::{self, CandidateHeader};
 use fsm_core::wire::row_dump::{self, RowDumpHeader, RowRecord};
 use fsm_core::wire::WireError;
-use fsm_core::{Decoder, Row, RowError, ScanPlan};
+use fsm_core::{MethodDecoder, MethodPlan, Row, RowError};
 
 use crate::limits::{Pixel, CANDIDATE_CAPACITY, LANES, MAX_FRAMES, MAX_ROW_SAMPLES, MAX_WIDTH};
 
@@ -45,9 +46,15 @@ pub enum ScanError {
 }
 
 impl Scan {
-    /// A scan of `plan` with rows of `width` pixels, `height` rows and `bit_depth`-bit samples,
-    /// if the camera's buffers hold such rows.
-    pub fn new(plan: &ScanPlan, width: u32, height: u32, bit_depth: u8) -> Result<Self, ScanError> {
+    /// A scan of `plan` (any method's) with rows of `width` pixels, `height` rows and
+    /// `bit_depth`-bit samples, if the camera's buffers hold such rows.
+    pub fn new(
+        plan: impl Into<MethodPlan>,
+        width: u32,
+        height: u32,
+        bit_depth: u8,
+    ) -> Result<Self, ScanError> {
+        let plan: MethodPlan = plan.into();
         let field = |field, value| Err(ScanError::Field { field, value });
         if width == 0 {
             return field("width", 0);
@@ -58,7 +65,7 @@ impl Scan {
         if !(1..=16).contains(&bit_depth) {
             return field("bit_depth", bit_depth as u32);
         }
-        let frames = plan.sequence_len();
+        let frames = plan.frame_count();
         let samples = (width as usize).checked_mul(frames);
         if width as usize > MAX_WIDTH
             || frames > MAX_FRAMES
@@ -70,7 +77,7 @@ impl Scan {
             });
         }
         Ok(Scan {
-            rows: RowDumpHeader::for_plan(plan, width, height, bit_depth),
+            rows: plan.row_dump_header(width, height, bit_depth),
             candidates: CandidateHeader {
                 capacity: CANDIDATE_CAPACITY as u16,
                 plan_fingerprint: plan.fingerprint(),
@@ -81,8 +88,9 @@ impl Scan {
     }
 
     /// The scan of a row dump's header, checked against `plan`.
-    pub fn of_dump(plan: &ScanPlan, header: &RowDumpHeader) -> Result<Self, DumpError> {
-        header.check_plan(plan).map_err(DumpError::Wire)?;
+    pub fn of_dump(plan: impl Into<MethodPlan>, header: &RowDumpHeader) -> Result<Self, DumpError> {
+        let plan: MethodPlan = plan.into();
+        plan.check_row_dump(header).map_err(DumpError::Wire)?;
         Scan::new(plan, header.width, header.height, header.bit_depth).map_err(DumpError::Scan)
     }
 
@@ -189,7 +197,7 @@ impl fmt::Display for DumpError {
 /// Per-pixel measurement around the decoder (the firmware benchmark); [`NoProbe`] decodes
 /// the row with one `decode_row` call.
 pub trait Probe {
-    /// Decode pixel by pixel (`Decoder::decode_pixel`, same results as `decode_row`) and call
+    /// Decode pixel by pixel (`MethodDecoder::decode_pixel`, same results as `decode_row`) and call
     /// [`Probe::before`] and [`Probe::after`] around each pixel.
     const PER_PIXEL: bool;
     /// Just before pixel `x` is decoded.
@@ -215,7 +223,7 @@ impl Probe for NoProbe {
 
 /// The buffers one row needs.
 pub struct RowBuffers<'a> {
-    /// `Decoder::scratch_len` floats or more.
+    /// `MethodPlan::scratch_len_lanes` floats or more (none for a baseline).
     pub scratch: &'a mut [f32],
     /// The samples of a slice of the row: `M` (frames per row) or more; a slice is as many
     /// pixels as fit, a multiple of [`LANES`] when more than that fit.
@@ -273,7 +281,7 @@ fn unpack_slice(
 /// index and the record's length. The row is unpacked and decoded slice by slice
 /// ([`slice_width`]); the candidates do not depend on the slices.
 pub fn decode_row<P: Probe>(
-    decoder: &Decoder<'_>,
+    decoder: &MethodDecoder<'_>,
     scan: &Scan,
     record: &[u8],
     buffers: &mut RowBuffers<'_>,
@@ -360,7 +368,9 @@ mod tests {
     use crate::reference;
     use crate::scene::MirrorScene;
     use fsm_core::wire::HEADER_LEN;
-    use fsm_core::GroupCount;
+    use fsm_core::{
+        CodeEnsemblePlan, GroupCount, LineScanPlan, MicroPhaseShiftPlan, PhaseShiftPlan, ScanPlan,
+    };
 
     #[test]
     fn slices_are_whole_lanes_of_what_fits() {
@@ -374,8 +384,8 @@ mod tests {
     #[test]
     fn wide_rows_fit_and_wider_ones_are_refused_by_name() {
         let bfsm = ScanPlan::paper_bfsm();
-        assert!(Scan::new(&bfsm, 4096, 2, 12).is_ok());
-        let refused = Scan::new(&bfsm, 4097, 2, 12).unwrap_err();
+        assert!(Scan::new(bfsm, 4096, 2, 12).is_ok());
+        let refused = Scan::new(bfsm, 4097, 2, 12).unwrap_err();
         assert_eq!(
             refused,
             ScanError::TooLarge {
@@ -384,6 +394,20 @@ mod tests {
             }
         );
         assert!(refused.to_string().contains("4097 pixels x 770 frames"));
+        // A baseline's rows are held to the same buffers: line scanning shows a frame per
+        // column, so a wide projector's rows are refused by name too.
+        let wide = LineScanPlan {
+            projector_columns: 65_535,
+            ..LineScanPlan::paper()
+        };
+        assert!(Scan::new(LineScanPlan::paper(), 4096, 2, 12).is_ok());
+        assert_eq!(
+            Scan::new(wide, 1, 2, 12),
+            Err(ScanError::TooLarge {
+                width: 1,
+                frames: 65_537
+            })
+        );
         // Every valid plan's rows fit a slice of one lane (MAX_FRAMES is a guard): the
         // largest, BFSM with N = 4096 (limits.rs), has far fewer frames.
         let mut largest = ScanPlan::paper_bfsm();
@@ -398,13 +422,25 @@ mod tests {
 
     /// The candidate file of a dump decoded with `slice` pixels per slice (the samples buffer
     /// sized for it).
-    fn decode_in_slices(plan: &ScanPlan, dump: &[u8], slice: usize) -> Vec<u8> {
+    /// Decodes pixel by pixel (`MethodDecoder::decode_pixel`), as the benchmark does.
+    struct EachPixel;
+
+    impl Probe for EachPixel {
+        const PER_PIXEL: bool = true;
+    }
+
+    fn decode_in_slices<P: Probe>(
+        plan: &MethodPlan,
+        dump: &[u8],
+        slice: usize,
+        probe: &mut P,
+    ) -> Vec<u8> {
         let header = RowDumpHeader::decode(dump).unwrap();
         let scan = Scan::of_dump(plan, &header).unwrap();
-        let frames = plan.sequence_len();
-        let mut tables = vec![0.0; Decoder::tables_len(plan)];
-        let decoder = Decoder::new(plan, &mut tables).unwrap();
-        let mut scratch = vec![0.0; Decoder::scratch_len_lanes::<LANES>(plan)];
+        let frames = plan.frame_count();
+        let mut tables = vec![0.0; plan.tables_len()];
+        let decoder = MethodDecoder::new(plan, &mut tables).unwrap();
+        let mut scratch = vec![0.0; plan.scratch_len_lanes::<LANES>()];
         let mut samples = vec![0u16; slice * frames];
         let mut pixels = vec![Pixel::new(); header.width as usize];
         let mut buffers = RowBuffers {
@@ -415,15 +451,8 @@ mod tests {
         let mut out = scan.candidates.encode().to_vec();
         let mut record = vec![0u8; scan.candidates.max_record_len().unwrap()];
         for input in dump[HEADER_LEN..].chunks_exact(scan.record_len()) {
-            let (_, len) = decode_row(
-                &decoder,
-                &scan,
-                input,
-                &mut buffers,
-                &mut record,
-                &mut NoProbe,
-            )
-            .unwrap();
+            let (_, len) =
+                decode_row(&decoder, &scan, input, &mut buffers, &mut record, probe).unwrap();
             out.extend_from_slice(&record[..len]);
         }
         out
@@ -431,19 +460,36 @@ mod tests {
 
     #[test]
     fn a_row_decoded_in_slices_is_the_whole_row_decoded_on_the_host() {
-        for plan in [
-            ScanPlan::paper_efsm(GroupCount::One),
-            ScanPlan::paper_efsm(GroupCount::Two),
-        ] {
+        let line_scan = LineScanPlan {
+            projector_columns: 96,
+            ..LineScanPlan::paper()
+        };
+        let plans: [MethodPlan; 6] = [
+            ScanPlan::paper_efsm(GroupCount::One).into(),
+            ScanPlan::paper_efsm(GroupCount::Two).into(),
+            PhaseShiftPlan::for_projector(96).into(),
+            MicroPhaseShiftPlan::spread(96, 16.0, 4.0, 7).into(),
+            CodeEnsemblePlan::for_projector(96).into(),
+            line_scan.into(),
+        ];
+        for plan in plans {
             // 37 pixels: slices of 1, 3, one lane, two lanes, and a last slice cut short.
-            let dump = MirrorScene::for_plan(&plan, 37, 3).dump(&plan);
-            let host = reference::decode_dump(&plan, &dump).unwrap();
+            let dump = MirrorScene::for_plan(plan, 37, 3).dump(plan);
+            let host = reference::decode_dump(plan, &dump).unwrap();
             let census = reference::census(&host).unwrap();
-            assert!(census.by_count[2..].iter().sum::<usize>() > 0, "{census:?}");
+            // FSM finds both lights of the mirror pixels; a baseline one light a pixel.
+            let several = if plan.as_fsm().is_some() { 2 } else { 1 };
+            assert!(
+                census.by_count[several..].iter().sum::<usize>() > 0,
+                "{}: {census:?}",
+                plan.name()
+            );
             for slice in [1, 3, LANES, 2 * LANES, 37] {
-                let sliced = decode_in_slices(&plan, &dump, slice);
+                let sliced = decode_in_slices(&plan, &dump, slice, &mut NoProbe);
                 assert_eq!(reference::compare(&host, &sliced), Ok(()), "slice {slice}");
                 assert_eq!(host, sliced, "slice {slice}");
+                let each = decode_in_slices(&plan, &dump, slice, &mut EachPixel);
+                assert_eq!(host, each, "slice {slice}, pixel by pixel");
             }
         }
     }
@@ -451,9 +497,9 @@ mod tests {
     #[test]
     fn a_raw_row_is_the_record_it_came_from() {
         let plan = ScanPlan::paper_efsm(GroupCount::Two);
-        let dump = MirrorScene::for_plan(&plan, 9, 2).dump(&plan);
+        let dump = MirrorScene::for_plan(plan, 9, 2).dump(plan);
         let header = RowDumpHeader::decode(&dump).unwrap();
-        let scan = Scan::of_dump(&plan, &header).unwrap();
+        let scan = Scan::of_dump(plan, &header).unwrap();
         let input = &dump[HEADER_LEN..HEADER_LEN + scan.record_len()];
         let mut out = vec![0u8; scan.record_len()];
         assert_eq!(raw_row(&scan, input, &mut out), Ok((0, input.len())));

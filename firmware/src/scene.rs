@@ -4,13 +4,14 @@
 //! sharper spot onto part of every row: those pixels see two projector columns, the direct one
 //! and the mirrored one (the situation of paper Fig. 1). Pixels are rendered through the one
 //! pattern function `ScanPlan::intensity`, with ambient light, deterministic noise and a
-//! shadow at the end of the row.
+//! shadow at the end of the row. Any method's plan renders through its frames
+//! (`PatternSequence::frame_intensity`), so the baselines' rows come from the same scene.
 //!
 //! It stands in for the simulator's `plane_mirror` dump in the cross-check: anything that
 //! writes a row dump of the same plan can replace it (see `scripts/crosscheck-arm.sh`).
 
-use fsm_core::wire::row_dump::{self, RowDumpHeader};
-use fsm_core::ScanPlan;
+use fsm_core::wire::row_dump;
+use fsm_core::MethodPlan;
 
 /// The scene's parameters. Columns are projector columns (SPEC §1), light in sensor DN.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,8 +54,8 @@ pub struct MirrorScene {
 
 impl MirrorScene {
     /// A scene of `width × height` pixels spanning most of `plan`'s projector columns.
-    pub fn for_plan(plan: &ScanPlan, width: u32, height: u32) -> Self {
-        let cmax = plan.projector_columns as f64;
+    pub fn for_plan(plan: impl Into<MethodPlan>, width: u32, height: u32) -> Self {
+        let cmax = plan.into().projector_columns() as f64;
         let lit = width.saturating_sub(width / 8).max(1);
         MirrorScene {
             width,
@@ -92,9 +93,11 @@ impl MirrorScene {
     }
 
     /// The samples of row `y`, sample-major (`frames[i·W + x]`, frame `i` in plan order).
-    pub fn row_samples(&self, plan: &ScanPlan, y: u32) -> Vec<u16> {
+    pub fn row_samples(&self, plan: impl Into<MethodPlan>, y: u32) -> Vec<u16> {
+        let plan: MethodPlan = plan.into();
+        let frames_of = plan.patterns();
         let w = self.width as usize;
-        let frames = plan.sequence_len();
+        let frames = plan.frame_count();
         let max = ((1u32 << self.bit_depth) - 1) as f64;
         let mut out = vec![0u16; frames * w];
         let mut spots: Vec<(i64, f64)> = Vec::new();
@@ -106,11 +109,11 @@ impl MirrorScene {
                     spread(m, self.mirror_blur, self.mirror_dn, &mut spots);
                 }
             }
-            for (i, pattern) in plan.sequence().enumerate() {
+            for i in 0..frames {
                 let light: f64 = spots
                     .iter()
                     .filter(|(j, _)| *j >= 0)
-                    .map(|&(j, w)| w * plan.intensity(pattern, j as u32) as f64)
+                    .map(|&(j, w)| w * frames_of.frame_intensity(i, j as u32) as f64)
                     .sum();
                 let noise = self.noise_dn * noise(self.seed, y, x, i as u32);
                 let v = (self.ambient_dn + light + noise).round().clamp(0.0, max);
@@ -121,8 +124,9 @@ impl MirrorScene {
     }
 
     /// The row dump of the scene under `plan`: header and one record per row, in row order.
-    pub fn dump(&self, plan: &ScanPlan) -> Vec<u8> {
-        let header = RowDumpHeader::for_plan(plan, self.width, self.height, self.bit_depth);
+    pub fn dump(&self, plan: impl Into<MethodPlan>) -> Vec<u8> {
+        let plan: MethodPlan = plan.into();
+        let header = plan.row_dump_header(self.width, self.height, self.bit_depth);
         let record_len = header.record_len().expect("scene rows fit in memory");
         let mut out = Vec::with_capacity(64 + record_len * self.height as usize);
         out.extend_from_slice(&header.encode());
@@ -153,6 +157,11 @@ pub struct TruthCheck {
     pub mirrored: usize,
     /// See `mirrored`.
     pub mirror_found: usize,
+    /// Lit pixels the mirror does not light (not flagged), and those with a candidate at their
+    /// column: what a method that sees one light per pixel must get right.
+    pub single_lit: usize,
+    /// See `single_lit`.
+    pub single_found: usize,
     /// Pixels in shadow, and those without a candidate.
     pub shadow: usize,
     /// See `shadow`.
@@ -184,18 +193,35 @@ impl TruthCheck {
     }
 }
 
+impl TruthCheck {
+    /// The test of a method that decodes one light per pixel (the baselines: phase shift,
+    /// Micro Phase Shifting, Code Ensemble, line scanning), which the mirror's second light
+    /// misleads by design (paper eq. 3): every row present; the light found in at least 95%
+    /// of the pixels lit by one light; at least 95% of the shadow without a candidate (a fixed
+    /// modulation threshold lets the odd noisy pixel through: phase shift, measured on the
+    /// mirror scene at 48 × 16, 95 of 96).
+    pub fn passes_single_light(&self, rows: u32) -> bool {
+        self.rows == rows as usize
+            && self.single_lit > 0
+            && 100 * self.single_found >= 95 * self.single_lit
+            && 100 * self.shadow_dark >= 95 * self.shadow
+    }
+}
+
 impl core::fmt::Display for TruthCheck {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(
             f,
             "{} rows, {} candidates; direct light found in {}/{} lit pixels ({} more flagged as \
-             mixtures), mirrored light in {}/{}, {}/{} shadow pixels without a candidate, {} stray \
-             candidates",
+             mixtures; {}/{} of those lit once), mirrored light in {}/{}, {}/{} shadow pixels \
+             without a candidate, {} stray candidates",
             self.rows,
             self.candidates,
             self.direct_found,
             self.lit,
             self.flagged,
+            self.single_found,
+            self.single_lit,
             self.mirror_found,
             self.mirrored,
             self.shadow_dark,
@@ -244,6 +270,9 @@ impl MirrorScene {
                         if let Some(m) = mirror {
                             check.mirrored += 1;
                             check.mirror_found += found(m) as usize;
+                        } else {
+                            check.single_lit += 1;
+                            check.single_found += found(direct) as usize;
                         }
                         [direct, mirror.unwrap_or(f64::NAN)]
                     }
@@ -294,6 +323,8 @@ fn noise(seed: u64, y: u32, x: u32, frame: u32) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fsm_core::wire::row_dump::RowDumpHeader;
+    use fsm_core::ScanPlan;
     use fsm_core::{Decoder, GroupCount, PixelCandidates, Row};
 
     /// The scene is what it claims: every lit pixel decodes to its direct column, and the
@@ -304,12 +335,12 @@ mod tests {
             ScanPlan::paper_bfsm(),
             ScanPlan::paper_efsm(GroupCount::Two),
         ] {
-            let scene = MirrorScene::for_plan(&plan, 32, 2);
+            let scene = MirrorScene::for_plan(plan, 32, 2);
             let mut tables = vec![0.0; Decoder::tables_len(&plan)];
             let decoder = Decoder::new(&plan, &mut tables).unwrap();
             let mut scratch = vec![0.0; Decoder::scratch_len(&plan)];
             let y = 1;
-            let samples = scene.row_samples(&plan, y);
+            let samples = scene.row_samples(plan, y);
             let row = Row {
                 frames: &samples,
                 width: 32,
@@ -348,8 +379,8 @@ mod tests {
         use fsm_core::wire::candidates::{encode_record, record_len};
         let plan = ScanPlan::paper_bfsm();
         let (w, h) = (24, 4);
-        let scene = MirrorScene::for_plan(&plan, w, h);
-        let good = crate::reference::decode_dump(&plan, &scene.dump(&plan)).unwrap();
+        let scene = MirrorScene::for_plan(plan, w, h);
+        let good = crate::reference::decode_dump(plan, &scene.dump(plan)).unwrap();
         assert!(scene.check(&good, 0.5).unwrap().passes(h));
         let (header, records) = crate::reference::records(&good).unwrap();
         let write = |shift: f32, rows: usize| {
@@ -377,8 +408,8 @@ mod tests {
     #[test]
     fn dump_reads_back() {
         let plan = ScanPlan::paper_efsm(GroupCount::One);
-        let scene = MirrorScene::for_plan(&plan, 8, 3);
-        let dump = scene.dump(&plan);
+        let scene = MirrorScene::for_plan(plan, 8, 3);
+        let dump = scene.dump(plan);
         let header = RowDumpHeader::decode(&dump).unwrap();
         header.check_plan(&plan).unwrap();
         let len = header.record_len().unwrap();
@@ -388,7 +419,21 @@ mod tests {
             assert_eq!(r.row, y as u32);
             let mut samples = vec![0; r.len()];
             r.copy_to(&mut samples).unwrap();
-            assert_eq!(samples, scene.row_samples(&plan, y as u32));
+            assert_eq!(samples, scene.row_samples(plan, y as u32));
         }
+    }
+
+    /// A baseline sees one light per pixel: held to the pixels the mirror does not light, it
+    /// passes; held to FSM's test (the mirrored light too), it does not.
+    #[test]
+    fn a_baseline_is_held_to_the_pixels_lit_once() {
+        let plan = fsm_core::CodeEnsemblePlan::for_projector(128);
+        let scene = MirrorScene::for_plan(plan, 24, 4);
+        let host = crate::reference::decode_dump(plan, &scene.dump(plan)).unwrap();
+        let check = scene.check(&host, 1.0).unwrap();
+        assert!(check.single_lit > 0 && check.mirrored > 0, "{check}");
+        assert!(check.passes_single_light(4), "{check}");
+        assert!(!check.passes(4), "{check}");
+        assert!(!check.passes_single_light(5), "{check}");
     }
 }

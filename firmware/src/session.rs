@@ -8,7 +8,7 @@
 
 use fsm_core::wire::row_dump::RowDumpHeader;
 use fsm_core::wire::HEADER_LEN;
-use fsm_core::ScanPlan;
+use fsm_core::MethodPlan;
 use fsm_protocol::frame::{self, FrameReader};
 use fsm_protocol::{Request, Response, RowOutput, ScanSpec};
 
@@ -51,12 +51,17 @@ impl Script {
     }
 }
 
-/// The session that scans `dump` with `plan`; with `bad_input`, first a row before any plan,
-/// a plan with a wrong fingerprint, a corrupted frame, a row of the wrong length and a row
-/// with a bad CRC, each of which must be answered with an error.
-pub fn script(plan: &ScanPlan, dump: &[u8], bad_input: bool) -> Result<Script, String> {
+/// Bad inputs a session with `bad_input` sends, each answered with an error.
+pub const BAD_INPUTS: u32 = 6;
+
+/// The session that scans `dump` with `plan` (any method's); with `bad_input`, first a row
+/// before any plan, a plan with a wrong fingerprint, a plan with a reserved byte set, a
+/// corrupted frame, a row of the wrong length and a row with a bad CRC ([`BAD_INPUTS`]), each
+/// of which must be answered with an error.
+pub fn script(plan: impl Into<MethodPlan>, dump: &[u8], bad_input: bool) -> Result<Script, String> {
+    let plan: MethodPlan = plan.into();
     let header = RowDumpHeader::decode(dump).map_err(|e| e.to_string())?;
-    header.check_plan(plan).map_err(|e| e.to_string())?;
+    plan.check_row_dump(&header).map_err(|e| e.to_string())?;
     let len = header.record_len().ok_or("row dump: rows too large")?;
     let body = &dump[HEADER_LEN..];
     if body.is_empty() || !body.len().is_multiple_of(len) {
@@ -87,6 +92,16 @@ pub fn script(plan: &ScanPlan, dump: &[u8], bad_input: bool) -> Result<Script, S
                 "PlanFingerprint {{ stated: {}, computed: {fingerprint} }}",
                 fingerprint ^ 0x8000
             )),
+        );
+        // Every method's plan ends with reserved bytes, which must be 0.
+        let mut reserved = plan_bytes.to_vec();
+        *reserved.last_mut().expect("plan bytes") = 1;
+        s.send(
+            &Request::UploadPlan {
+                plan: &reserved,
+                fingerprint,
+            },
+            Expect::Error("PlanInvalid { reason: \"".into()),
         );
         let mut corrupted = frame::encode_vec(&Request::UploadPlan {
             plan: &plan_bytes,
@@ -194,30 +209,50 @@ mod tests {
     use crate::memory::HostStorage;
     use crate::reference;
     use crate::scene::MirrorScene;
-    use fsm_core::GroupCount;
+    use fsm_core::{GroupCount, LineScanPlan, ScanPlan};
 
     /// The recorded session, replayed through the device on the host, gives the host's
     /// candidates; a wrong answer is caught.
     #[test]
     fn replayed_session_gives_the_host_candidates() {
         let plan = ScanPlan::paper_efsm(GroupCount::One);
-        let dump = MirrorScene::for_plan(&plan, 10, 3).dump(&plan);
-        let s = script(&plan, &dump, true).unwrap();
+        let dump = MirrorScene::for_plan(plan, 10, 3).dump(plan);
+        let s = script(plan, &dump, true).unwrap();
         let mut storage = HostStorage::default();
         let mut device = Device::new(storage.memory());
         let mut link = Replay::new(&s.requests, Vec::new());
         let report = device.serve(&mut link).unwrap();
-        assert_eq!(report.errors, 5);
+        assert_eq!(report.errors, BAD_INPUTS);
         assert_eq!(report.rows, 3);
         let candidates = check_replies(&s, &link.output).unwrap();
-        assert_eq!(candidates, reference::decode_dump(&plan, &dump).unwrap());
+        assert_eq!(candidates, reference::decode_dump(plan, &dump).unwrap());
 
         // The answers of another session do not pass.
-        let plain = script(&plan, &dump, false).unwrap();
+        let plain = script(plan, &dump, false).unwrap();
         let e = check_replies(&plain, &link.output).unwrap_err();
         assert!(e.starts_with("answer 1: expected PlanAccepted"), "{e}");
         // Nor do truncated answers.
         let e = check_replies(&s, &link.output[..link.output.len() - 3]).unwrap_err();
         assert!(e.contains("end inside a frame"), "{e}");
+    }
+
+    /// A baseline's session too: its plan uploaded, its rows decoded as the host decodes them.
+    #[test]
+    fn a_baselines_session_gives_the_host_candidates() {
+        let plan = LineScanPlan {
+            projector_columns: 48,
+            ..LineScanPlan::paper()
+        };
+        let dump = MirrorScene::for_plan(plan, 12, 3).dump(plan);
+        let s = script(plan, &dump, true).unwrap();
+        let mut storage = HostStorage::default();
+        let mut device = Device::new(storage.memory());
+        let mut link = Replay::new(&s.requests, Vec::new());
+        let report = device.serve(&mut link).unwrap();
+        assert_eq!((report.errors, report.rows), (BAD_INPUTS, 3));
+        let candidates = check_replies(&s, &link.output).unwrap();
+        let host = reference::decode_dump(plan, &dump).unwrap();
+        assert_eq!(candidates, host);
+        assert!(reference::census(&host).unwrap().by_count[1] > 0);
     }
 }

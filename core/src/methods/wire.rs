@@ -101,17 +101,21 @@ pub const BASELINE_PLAN_VERSION: u16 = 1;
 pub const MAX_PLAN_LEN: usize = MICRO_PHASE_SHIFT_LEN;
 /// Bytes of the shortest plan of any method.
 pub const MIN_PLAN_LEN: usize = PHASE_SHIFT_LEN;
+/// The lengths the plan of some method has in its current version (FSM's 80, then the
+/// baselines'): what a camera checks before it reads the bytes.
+pub const PLAN_LENGTHS: [usize; 5] = [
+    PLAN_LEN,
+    PHASE_SHIFT_LEN,
+    MICRO_PHASE_SHIFT_LEN,
+    LINE_SCAN_LEN,
+    CODE_ENSEMBLE_LEN,
+];
 
 const _: () = assert!(MAX_PLAN_LEN >= PLAN_LEN);
 // No baseline plan has an FSM plan's length: the length alone says FSM or not.
 const _: () = {
-    let lens = [
-        PHASE_SHIFT_LEN,
-        MICRO_PHASE_SHIFT_LEN,
-        LINE_SCAN_LEN,
-        CODE_ENSEMBLE_LEN,
-    ];
-    let mut i = 0;
+    let lens = PLAN_LENGTHS;
+    let mut i = 1;
     while i < lens.len() {
         assert!(lens[i] != PLAN_LEN && lens[i] != PLAN_V1_LEN && lens[i] >= MIN_PLAN_LEN);
         i += 1;

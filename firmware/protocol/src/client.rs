@@ -11,6 +11,8 @@
 //! let mut camera = Client::connect("tcp://127.0.0.1:7070", Duration::from_secs(30))?;
 //! let info = camera.hello()?;
 //! let fingerprint = camera.upload_plan(&plan)?; // == plan.fingerprint(), checked
+//! // Any method's plan: the baselines' too.
+//! camera.upload_plan(fsm_core::LineScanPlan::paper())?;
 //! # let _ = (info, fingerprint);
 //! # Ok::<(), fsm_protocol::client::ClientError>(())
 //! ```
@@ -24,7 +26,7 @@ use std::time::Duration;
 use fsm_core::wire::candidates::{self, CandidateHeader};
 use fsm_core::wire::row_dump::{self, RowDumpHeader};
 use fsm_core::wire::{PlanIdentity, WireError, HEADER_LEN};
-use fsm_core::ScanPlan;
+use fsm_core::MethodPlan;
 
 use crate::frame::{self, FrameError, FrameReader};
 use crate::message::{DeviceInfo, Request, RequestKind, Response, RowOutput, ScanSpec};
@@ -327,9 +329,11 @@ impl<L: Read + Write> Client<L> {
         }
     }
 
-    /// Uploads `plan`; returns the fingerprint the camera acknowledged, which is checked to
-    /// be `plan.fingerprint()`.
-    pub fn upload_plan(&mut self, plan: &ScanPlan) -> Result<u64, ClientError> {
+    /// Uploads `plan`, of any method (its canonical bytes, `fsm_core::methods::wire`);
+    /// returns the fingerprint the camera acknowledged, which is checked to be
+    /// `plan.fingerprint()`.
+    pub fn upload_plan(&mut self, plan: impl Into<MethodPlan>) -> Result<u64, ClientError> {
+        let plan: MethodPlan = plan.into();
         let bytes = plan.to_bytes();
         let sent = plan.fingerprint();
         let request = Request::UploadPlan {
@@ -426,7 +430,7 @@ impl<L: Read + Write> Client<L> {
     /// returns is checked with `fsm_core::wire` before it is written.
     pub fn scan_dump(
         &mut self,
-        plan: &ScanPlan,
+        plan: impl Into<MethodPlan>,
         dump: &[u8],
         dump_name: &str,
         output: RowOutput,
@@ -436,8 +440,9 @@ impl<L: Read + Write> Client<L> {
             source: dump_name.to_string(),
             error,
         };
+        let plan: MethodPlan = plan.into();
         let header = RowDumpHeader::decode(dump).map_err(wire)?;
-        header.check_plan(plan).map_err(wire)?;
+        plan.check_row_dump(&header).map_err(wire)?;
         let record_len = header.record_len().ok_or(wire(WireError::Field {
             what: "row dump",
             field: "width",
@@ -590,7 +595,7 @@ impl Device {
 
     /// `fsm upload --plan P --device ADDR`: uploads `plan` and returns the acknowledged
     /// fingerprint (checked) and the camera's limits.
-    pub fn upload(&self, plan: &ScanPlan) -> Result<(u64, DeviceInfo), DeviceError> {
+    pub fn upload(&self, plan: impl Into<MethodPlan>) -> Result<(u64, DeviceInfo), DeviceError> {
         self.talk(|client| {
             let info = client.hello()?;
             Ok((client.upload_plan(plan)?, info))
@@ -602,7 +607,7 @@ impl Device {
     /// committed on success) is the caller's: the host has one atomic writer.
     pub fn scan_dump_file(
         &self,
-        plan: &ScanPlan,
+        plan: impl Into<MethodPlan>,
         dump_path: &Path,
         output: RowOutput,
         out: &mut impl Write,

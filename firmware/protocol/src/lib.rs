@@ -1,12 +1,14 @@
 //! # fsm-protocol: host ⇄ camera messages
 //!
 //! The link between the host (`fsm upload`, `fsm camera`) and the camera's firmware: upload a
-//! scan plan and have it acknowledged by its fingerprint, start a scan, send rows, receive the
+//! plan of any method (BFSM, EFSM or a baseline the paper compares them with) and have it
+//! acknowledged by its fingerprint, start a scan, send rows, receive the
 //! candidates of every row (or the raw rows, for decoding on the host), end the scan, and
 //! hear about every refusal. `no_std` and allocation-free, so the camera links the very code
 //! the host uses; the feature `std` adds the host's [`client`] over TCP and serial ports.
 //!
-//! Plans, rows and candidates travel as the bytes of `fsm_core::wire` (plan bytes,
+//! Plans, rows and candidates travel as the bytes of `fsm_core::wire` (plan bytes of
+//! `fsm_core::methods::wire`,
 //! `row_dump` records, `candidates` records, each with its own CRC): a scan received over the
 //! link, header + records, is byte for byte the file `fsm decode` writes for the same rows.
 //!
@@ -43,7 +45,7 @@
 //! | tag | request | fields | answer |
 //! |---|---|---|---|
 //! | 0 | [`Request::Hello`] | — | `Info` |
-//! | 1 | [`Request::UploadPlan`] | `plan`: bytes (`ScanPlan::to_bytes`, 64), `fingerprint`: u64 (`ScanPlan::fingerprint`) | `PlanAccepted` |
+//! | 1 | [`Request::UploadPlan`] | `plan`: bytes (`MethodPlan::to_bytes`: 80 for FSM, 32 or 96 for a baseline), `fingerprint`: u64 (`MethodPlan::fingerprint`) | `PlanAccepted` |
 //! | 2 | [`Request::StartScan`] | `fingerprint`: u64, `width`: u32, `height`: u32, `bit_depth`: u8, `output`: 0 candidates / 1 raw | `ScanStarted` |
 //! | 3 | [`Request::Row`] | `record`: bytes (a `row_dump` record: u32 row, `W·M` u16 samples, u32 CRC) | `CandidateRow` or `RawRow` |
 //! | 4 | [`Request::EndScan`] | — | `ScanEnded` |
@@ -66,7 +68,7 @@
 //! |---|---|---|
 //! | 0 | `Frame` | [`FrameError`]: 0 `TooLong` {limit u32}, 1 `Cobs`, 2 `TooShort` {len u32}, 3 `Crc` {stored u32, computed u32}, 4 `Version` {got u8, supported u8}, 5 `Message` |
 //! | 1 | `State` | `request`: 0 Hello … 4 EndScan, `state`: 0 no plan, 1 idle, 2 scanning |
-//! | 2 | `PlanLength` | `got`: u32 |
+//! | 2 | `PlanLength` | `got`: u32 (no method's plan has that length) |
 //! | 3 | `PlanInvalid` | `reason`: str (core's message, e.g. the field) |
 //! | 4 | `PlanFingerprint` | `stated`: u64, `computed`: u64 |
 //! | 5 | `PlanTooLarge` | `table_floats`: u32, `max`: u32 |

@@ -15,15 +15,16 @@ use crate::frame::FrameError;
 pub enum Request<'a> {
     /// Who are you and how much can you take? Answered by [`Response::Info`].
     Hello,
-    /// Load a scan plan: its 80 canonical bytes (`ScanPlan::to_bytes`) and the fingerprint
-    /// the host computed (`ScanPlan::fingerprint`). The camera recomputes the fingerprint from
-    /// the bytes it received and loads the plan only if the two agree; answered by
+    /// Load a plan of any method: its canonical bytes (`MethodPlan::to_bytes`: an FSM plan's
+    /// 80, a baseline's 32 or 96) and the fingerprint the host computed
+    /// (`MethodPlan::fingerprint`). The camera recomputes the fingerprint from the bytes it
+    /// received and loads the plan only if the two agree; answered by
     /// [`Response::PlanAccepted`] with that fingerprint. A rejected plan leaves the loaded one
     /// in place.
     UploadPlan {
-        /// `ScanPlan::to_bytes()`, 80 bytes.
+        /// `MethodPlan::to_bytes()`: 80 bytes (FSM), 32 or 96 (the baselines).
         plan: &'a [u8],
-        /// `ScanPlan::fingerprint()` of those bytes, as the host computed it.
+        /// `MethodPlan::fingerprint()` of those bytes, as the host computed it.
         fingerprint: u64,
     },
     /// Start a scan with the loaded plan; answered by [`Response::ScanStarted`].
@@ -131,7 +132,7 @@ pub enum DeviceError<'a> {
         /// What the camera is doing.
         state: DeviceState,
     },
-    /// The plan bytes are not `PLAN_LEN` (80) bytes long.
+    /// The plan bytes have no method's plan length (80 for FSM, 32 or 96 for the baselines).
     PlanLength {
         /// Bytes received.
         got: u32,
@@ -304,7 +305,11 @@ impl fmt::Display for DeviceError<'_> {
                 write!(f, "{request} refused: {state}")
             }
             DeviceError::PlanLength { got } => {
-                write!(f, "plan: {got} bytes received, a plan has 64")
+                write!(
+                    f,
+                    "plan: {got} bytes received, a plan has 80 (FSM), 32 (phase shift, line \
+                     scanning, Code Ensemble) or 96 (Micro Phase Shifting)"
+                )
             }
             DeviceError::PlanInvalid { reason } => write!(f, "plan rejected: {reason}"),
             DeviceError::PlanFingerprint { stated, computed } => write!(

@@ -453,7 +453,7 @@ fn a_device_names_itself_in_its_errors() {
     let missing = std::path::Path::new("no-such-dump.fsmd");
     let plan = fsm_core::ScanPlan::paper_bfsm();
     let output = RowOutput::Candidates;
-    let e = device.scan_dump_file(&plan, missing, output, &mut Vec::new());
+    let e = device.scan_dump_file(plan, missing, output, &mut Vec::new());
     let e = e.unwrap_err().to_string();
     assert!(
         e.starts_with("tcp://127.0.0.1:1: reading no-such-dump.fsmd: "),

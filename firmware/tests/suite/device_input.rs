@@ -112,7 +112,7 @@ proptest! {
     #[test]
     fn arbitrary_rows_in_a_real_scan(rows in prop::collection::vec(prop::collection::vec(any::<u8>(), 0..3000), 1..4)) {
         let plan = ScanPlan::paper_efsm(GroupCount::One);
-        let dump = MirrorScene::for_plan(&plan, 8, 2).dump(&plan);
+        let dump = MirrorScene::for_plan(plan, 8, 2).dump(plan);
         let len = (dump.len() - HEADER_LEN) / 2;
         let good = &dump[HEADER_LEN..HEADER_LEN + len];
         let bytes = plan.to_bytes();

@@ -8,7 +8,10 @@ use std::time::Duration;
 use fsm_core::wire::candidates::{self, CandidateHeader};
 use fsm_core::wire::row_dump::{self, RowDumpHeader};
 use fsm_core::wire::HEADER_LEN;
-use fsm_core::{GroupCount, ScanPlan};
+use fsm_core::{
+    CodeEnsemblePlan, GroupCount, LineScanPlan, MethodPlan, MicroPhaseShiftPlan, PhaseShiftPlan,
+    ScanPlan,
+};
 use fsm_firmware::emulator::{self, Emulator};
 use fsm_firmware::limits;
 use fsm_firmware::reference;
@@ -59,13 +62,13 @@ fn scans_through_the_emulator_match_the_host_decode() {
         ScanPlan::paper_bfsm(),
         ScanPlan::paper_efsm(GroupCount::Two),
     ] {
-        let dump = MirrorScene::for_plan(&plan, 24, 4).dump(&plan);
+        let dump = MirrorScene::for_plan(plan, 24, 4).dump(plan);
         scan_and_compare(&mut client, &plan, &dump);
 
         // Raw rows for host-side decode: the camera streams back exactly the dump.
         let mut raw = Vec::new();
         client
-            .scan_dump(&plan, &dump, "scene.dump", RowOutput::Raw, &mut raw)
+            .scan_dump(plan, &dump, "scene.dump", RowOutput::Raw, &mut raw)
             .unwrap();
         assert_eq!(raw, dump);
     }
@@ -76,6 +79,103 @@ fn scans_through_the_emulator_match_the_host_decode() {
         again.hello().unwrap().plan_fingerprint,
         Some(ScanPlan::paper_efsm(GroupCount::Two).fingerprint())
     );
+}
+
+#[test]
+fn every_baselines_plan_uploads_and_scans_through_the_emulator() {
+    let camera = Emulator::spawn("127.0.0.1:0").unwrap();
+    let mut client = Client::connect(&camera.url(), TIMEOUT).unwrap();
+    let plans: [MethodPlan; 4] = [
+        PhaseShiftPlan::for_projector(96).into(),
+        MicroPhaseShiftPlan::spread(96, 16.0, 4.0, 7).into(),
+        LineScanPlan {
+            projector_columns: 96,
+            ..LineScanPlan::paper()
+        }
+        .into(),
+        CodeEnsemblePlan::for_projector(96).into(),
+    ];
+    for plan in plans {
+        let dump = MirrorScene::for_plan(plan, 20, 3).dump(plan);
+        let mut received = Vec::new();
+        let summary = client
+            .scan_dump(
+                plan,
+                &dump,
+                "scene.dump",
+                RowOutput::Candidates,
+                &mut received,
+            )
+            .unwrap_or_else(|e| panic!("{}: {e}", plan.name()));
+        let expected = reference::decode_dump(plan, &dump).unwrap();
+        if let Err(d) = reference::compare(&expected, &received) {
+            panic!("{}: camera and host differ: {d}", plan.name());
+        }
+        assert_eq!(received, expected);
+        assert_eq!(summary.fingerprint, plan.fingerprint());
+        let header = CandidateHeader::decode(&received).unwrap();
+        assert_eq!(header.plan_fingerprint, plan.fingerprint());
+        let census = reference::census(&received).unwrap();
+        assert!(census.by_count[1..].iter().sum::<usize>() > 0, "{census}");
+        assert_eq!(
+            client.hello().unwrap().plan_fingerprint,
+            Some(plan.fingerprint())
+        );
+        // Raw rows: the camera streams back exactly the dump.
+        let mut raw = Vec::new();
+        client
+            .scan_dump(plan, &dump, "scene.dump", RowOutput::Raw, &mut raw)
+            .unwrap();
+        assert_eq!(raw, dump);
+    }
+
+    // A baseline plan that breaks its rules is refused naming the field, the loaded one kept.
+    let loaded = client.hello().unwrap().plan_fingerprint;
+    let bad = PhaseShiftPlan {
+        steps: 2,
+        ..PhaseShiftPlan::for_projector(96)
+    };
+    let bytes = bad.to_bytes();
+    let e = answer(
+        &mut client,
+        &Request::UploadPlan {
+            plan: &bytes,
+            fingerprint: bad.fingerprint(),
+        },
+    );
+    assert!(e.starts_with("PlanInvalid") && e.contains("steps"), "{e}");
+    // Bytes of no method's length, and a baseline's bytes with an unknown tag.
+    let e = answer(
+        &mut client,
+        &Request::UploadPlan {
+            plan: &bytes[..31],
+            fingerprint: 0,
+        },
+    );
+    assert_eq!(e, format!("{:?}", DeviceError::PlanLength { got: 31 }));
+    let mut untagged = bytes;
+    untagged[..2].copy_from_slice(b"XX");
+    let e = answer(
+        &mut client,
+        &Request::UploadPlan {
+            plan: &untagged,
+            fingerprint: 0,
+        },
+    );
+    assert!(e.starts_with("PlanInvalid") && e.contains("tag"), "{e}");
+    assert_eq!(client.hello().unwrap().plan_fingerprint, loaded);
+    // A scan that names another plan than the baseline loaded is refused.
+    let e = answer(
+        &mut client,
+        &Request::StartScan(ScanSpec {
+            fingerprint: ScanPlan::paper_bfsm().fingerprint(),
+            width: 4,
+            height: 1,
+            bit_depth: 12,
+            output: RowOutput::Candidates,
+        }),
+    );
+    assert!(e.starts_with("PlanMismatch"), "{e}");
 }
 
 /// The error the camera answers `request` with (sent as raw bytes).
@@ -107,8 +207,8 @@ fn bad_input_is_answered_with_an_error_and_the_camera_keeps_serving() {
     let mut c = Client::connect(&camera.url(), TIMEOUT).unwrap();
     let plan = ScanPlan::paper_efsm(GroupCount::Two);
     let other = ScanPlan::paper_efsm(GroupCount::One);
-    let scene = MirrorScene::for_plan(&plan, 12, 3);
-    let dump = scene.dump(&plan);
+    let scene = MirrorScene::for_plan(plan, 12, 3);
+    let dump = scene.dump(plan);
     let header = RowDumpHeader::decode(&dump).unwrap();
     let record_len = header.record_len().unwrap();
     let record = |y: usize| &dump[HEADER_LEN + y * record_len..HEADER_LEN + (y + 1) * record_len];
@@ -181,7 +281,7 @@ fn bad_input_is_answered_with_an_error_and_the_camera_keeps_serving() {
     assert_eq!(c.hello().unwrap().plan_fingerprint, None);
 
     // The right plan is accepted and acknowledged with its fingerprint.
-    assert_eq!(c.upload_plan(&plan).unwrap(), plan.fingerprint());
+    assert_eq!(c.upload_plan(plan).unwrap(), plan.fingerprint());
 
     // A corrupted frame (a plan upload with one bit flipped) is refused and not applied.
     let other_bytes = other.to_bytes();
@@ -312,7 +412,7 @@ fn bad_input_is_answered_with_an_error_and_the_camera_keeps_serving() {
     assert!(e.contains("Scanning"), "{e}");
 
     // After all that, rows decode exactly as on the host.
-    let expected = reference::decode_dump(&plan, &dump).unwrap();
+    let expected = reference::decode_dump(plan, &dump).unwrap();
     let mut at = HEADER_LEN;
     for y in 0..3 {
         let got = c.send_row(record(y)).unwrap().to_vec();
@@ -370,7 +470,7 @@ fn serial_port_link() {
     let mut client = Client::connect(&format!("{path}@115200"), TIMEOUT).unwrap();
     drop(slave);
     let plan = ScanPlan::paper_efsm(GroupCount::One);
-    let dump = MirrorScene::for_plan(&plan, 16, 2).dump(&plan);
+    let dump = MirrorScene::for_plan(plan, 16, 2).dump(plan);
     scan_and_compare(&mut client, &plan, &dump);
     drop(client);
     // The camera side sees the port close (an I/O error on a pty) and returns.

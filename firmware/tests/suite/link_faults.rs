@@ -296,14 +296,14 @@ fn garbage_then_a_good_session() {
     let mut received = Vec::new();
     client
         .scan_dump(
-            &plan,
+            plan,
             &dump,
             "scene.dump",
             RowOutput::Candidates,
             &mut received,
         )
         .unwrap();
-    assert_eq!(received, reference::decode_dump(&plan, &dump).unwrap());
+    assert_eq!(received, reference::decode_dump(plan, &dump).unwrap());
     drop(client);
     scan_is_host_equal(&camera, &plan);
 }

@@ -182,8 +182,8 @@ fn firmware_under_qemu_matches_the_host_decode() {
         ("BFSM", ScanPlan::paper_bfsm()),
         ("EFSM two groups", ScanPlan::paper_efsm(GroupCount::Two)),
     ] {
-        let dump = MirrorScene::for_plan(&plan, WIDTH, ROWS).dump(&plan);
-        let host = reference::decode_dump(&plan, &dump).unwrap();
+        let dump = MirrorScene::for_plan(plan, WIDTH, ROWS).dump(plan);
+        let host = reference::decode_dump(plan, &dump).unwrap();
         let firmware = run_firmware(&elf, &dir, Some(&plan), &dump, "fw-candidates.bin");
         if let Err(d) = reference::compare(&host, &firmware) {
             panic!("{name}: firmware (Cortex-A9) and host candidates differ: {d}");
@@ -196,7 +196,7 @@ fn firmware_under_qemu_matches_the_host_decode() {
             host.len()
         ));
 
-        let script = session::script(&plan, &dump, true).unwrap();
+        let script = session::script(plan, &dump, true).unwrap();
         let replies = run_firmware(&elf, &dir, None, &script.requests, "fw-link.bin");
         let carried = session::check_replies(&script, &replies)
             .unwrap_or_else(|e| panic!("{name}: the firmware's answers: {e}"));
@@ -430,7 +430,7 @@ fn scans_and_garbage(
         &ScanPlan::paper_bfsm(),
         bfsm_rows,
     );
-    client.upload_plan(&efsm).unwrap();
+    client.upload_plan(efsm).unwrap();
 
     client
         .send_raw(RequestKind::Hello, &[0, 0xde, 0xad, 0xbe, 0xef, 0x17, 0])

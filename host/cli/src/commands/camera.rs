@@ -1,6 +1,8 @@
 //! `fsm upload` and `fsm camera`: talking to a smart camera that decodes on board, over TCP
 //! (`tcp://host:port`) or a serial port (`/dev/ttyUSB0`, `/dev/ttyUSB0@921600`), with the
-//! protocol of `fsm-protocol` (postcard + COBS frames, CRC-32, versioned).
+//! protocol of `fsm-protocol` (postcard + COBS frames, CRC-32, versioned). The camera takes a
+//! plan of any method (BFSM, EFSM, or a baseline the paper compares them with): its canonical
+//! bytes travel (`fsm_core::methods::wire`), and its candidate files carry its fingerprint.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -10,15 +12,17 @@ use fsm_io::{Error, Result};
 use fsm_protocol::client::{Device, DeviceError};
 use fsm_protocol::RowOutput;
 
-/// Upload a scan plan to a camera; it answers with the plan's fingerprint.
+/// Upload a plan of any method to a camera; it answers with the plan's fingerprint.
 ///
 /// Examples:
 ///   fsm upload --plan plan.toml --device tcp://192.168.1.10:7070
+///   fsm upload --plan line-scan.toml --device tcp://192.168.1.10:7070
 ///   fsm upload --plan plan.toml --device /dev/ttyUSB0@921600
 #[derive(clap::Args, Debug)]
 #[command(verbatim_doc_comment)]
 pub struct UploadArgs {
-    /// Scan-plan file.
+    /// Plan file of any method (BFSM, EFSM, phase shift, Micro Phase Shifting, Code Ensemble,
+    /// line scanning).
     #[arg(long, value_name = "FILE")]
     plan: PathBuf,
     #[command(flatten)]
@@ -75,8 +79,8 @@ pub enum CameraCommand {
 }
 
 pub fn upload(args: UploadArgs) -> Result<()> {
-    let plan = fsm_io::plan_file::read_plan(&args.plan)?;
-    let (fingerprint, info) = args.link.device().upload(&plan).map_err(usage)?;
+    let plan = fsm_io::plan_file::read_method_plan(&args.plan)?;
+    let (fingerprint, info) = args.link.device().upload(plan).map_err(usage)?;
     let (device, path) = (&args.link.device, args.plan.display());
     eprintln!("{device}: plan {path} accepted (fingerprint {fingerprint:016x}); {info:#}");
     Ok(())
@@ -89,7 +93,7 @@ pub fn camera(command: CameraCommand) -> Result<()> {
             Ok(())
         }
         CameraCommand::Scan { to, dump, out, raw } => {
-            let scan_plan = fsm_io::plan_file::read_plan(&to.plan)?;
+            let plan = fsm_io::plan_file::read_method_plan(&to.plan)?;
             let output = if raw {
                 RowOutput::Raw
             } else {
@@ -97,7 +101,7 @@ pub fn camera(command: CameraCommand) -> Result<()> {
             };
             let mut file = StagedFile::create(&out)?;
             let device = to.link.device();
-            let scan = device.scan_dump_file(&scan_plan, &dump, output, file.writer());
+            let scan = device.scan_dump_file(plan, &dump, output, file.writer());
             let summary = scan.map_err(usage)?;
             file.commit()?;
             eprintln!("{}", summary.report(&device, &dump, &out));

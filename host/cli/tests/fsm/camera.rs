@@ -76,6 +76,67 @@ fn the_camera_decodes_a_simulated_scan_exactly_as_the_host_does() {
 }
 
 #[test]
+fn the_camera_decodes_every_baselines_scan_exactly_as_the_host_does() {
+    let camera = Emulator::spawn("127.0.0.1:0").unwrap();
+    let device = camera.url();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for method in [
+        "phase-shift",
+        "micro-phase-shift",
+        "code-ensemble",
+        "line-scan",
+    ] {
+        let plan = d.join(format!("{method}.toml"));
+        fsm()
+            .args(["plan", "--method", method, "--projector-columns", "768"])
+            .args(["--out", s(&plan)])
+            .assert()
+            .success();
+        let sim = d.join(method);
+        fsm()
+            .args(["simulate", "--scene", "plane_mirror", "--plan", s(&plan)])
+            .args(["--camera", "24x8", "--out", s(&sim)])
+            .assert()
+            .success();
+        let dump = sim.join("scan.dump");
+        let upload = fsm()
+            .args(["upload", "--plan", s(&plan), "--device", &device])
+            .assert()
+            .success();
+        let fingerprint = fsm_io::plan_file::read_method_plan(&plan)
+            .unwrap()
+            .fingerprint();
+        assert!(
+            stderr(&upload).contains(&format!("{fingerprint:016x}")),
+            "{method}: {}",
+            stderr(&upload)
+        );
+        let from_camera = d.join(format!("{method}.fsmc"));
+        fsm()
+            .args(["camera", "scan", "--plan", s(&plan), "--device", &device])
+            .args(["--dump", s(&dump), "--out", s(&from_camera)])
+            .assert()
+            .success();
+        let decoded = d.join(format!("{method}-decoded"));
+        fsm()
+            .args(["decode", "--plan", s(&plan), "--dump", s(&dump)])
+            .args(["--out", s(&decoded)])
+            .assert()
+            .success();
+        let host = fs::read(decoded.join(CANDIDATE_FILE_NAME)).unwrap();
+        let device_bytes = fs::read(&from_camera).unwrap();
+        let header = fsm_core::wire::candidates::CandidateHeader::decode(&host).unwrap();
+        assert_eq!(header.plan_fingerprint, fingerprint, "{method}");
+        assert!(host.len() > 64 + 8 * 12, "{method}: {} bytes", host.len());
+        assert!(
+            host == device_bytes,
+            "{method}: camera and host candidate files differ"
+        );
+    }
+}
+
+#[test]
 fn a_camera_that_is_not_there_is_named_in_the_error() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");
