@@ -51,3 +51,18 @@ pub extern "C" fn fsm_core_no_std_proof(tables: &mut [f32; 4096]) -> usize {
         Err(_) => 0,
     }
 }
+
+/// Touches every method's plan bytes and row decoder (`fsm_core::methods`), likewise.
+#[no_mangle]
+pub extern "C" fn fsm_core_methods_no_std_proof(
+    bytes: &[u8; 96],
+    tables: &mut [f32; 4096],
+) -> usize {
+    match fsm_core::MethodPlan::from_bytes(bytes) {
+        Ok(plan) => match fsm_core::MethodDecoder::new(&plan, tables) {
+            Ok(d) => d.plan().to_bytes().len(),
+            Err(_) => 1,
+        },
+        Err(_) => 0,
+    }
+}
