@@ -202,8 +202,9 @@ fn firmware_under_qemu_matches_the_host_decode() {
             .unwrap_or_else(|e| panic!("{name}: the firmware's answers: {e}"));
         assert_eq!(carried, host, "{name}: candidates carried by the protocol");
         say(&format!(
-            "ok   - {name}: protocol session on the Cortex-A9, {} requests (5 bad inputs refused), same candidates",
-            script.expect.len()
+            "ok   - {name}: protocol session on the Cortex-A9, {} requests ({} bad inputs refused), same candidates",
+            script.expect.len(),
+            session::BAD_INPUTS
         ));
     }
     let _ = std::fs::remove_dir_all(&dir);
