@@ -41,10 +41,11 @@
 //!    lights (box footprints of 1–3 columns, blur σ 0.4–1, intensity ramps of ±50%, the noise of
 //!    EFSM cB 64): 21% less scatter than the plain centroid, no bias. Its amplitude is the sum of
 //!    its non-negative light, in sensor DN of fringe modulation (the unit of every search).
-//!    An isolated light (the only maximum of its run) is then moved to where the profile
-//!    correlates best with a bell of its own width (a centroid re-weighted by a window on the
-//!    light, [`MATCHED_REACH`]): a matched filter, 20–30% less scatter than the floored
-//!    centroid. Lights below `min_amplitude_dn` or `relative_floor` of the strongest are
+//!    An isolated light (the only maximum of its run) at least 0.8 column wide is then moved
+//!    to where the profile correlates best with a bell of its own width (a centroid
+//!    re-weighted by a window on the light, [`MATCHED_REACH`]): a matched filter, 16–32% less
+//!    scatter than the floored centroid. A narrower light keeps its centroid (the window's
+//!    sampling bias would exceed the noise it saves). Lights below `min_amplitude_dn` or `relative_floor` of the strongest are
 //!    dropped; at most `max_peaks` are kept, strongest first.
 
 use heapless::Vec;
