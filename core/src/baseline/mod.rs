@@ -132,7 +132,7 @@ pub trait PixelDecoder: PatternSequence {
         row: &Row<'_>,
         out: &mut [PixelCandidates<K>],
     ) -> Result<(), RowError> {
-        check_row(self.frame_count(), row)?;
+        row.check_shape(self.frame_count())?;
         if out.len() != row.width {
             return Err(RowError::OutputLength {
                 expected: row.width,
@@ -154,7 +154,7 @@ pub trait PixelDecoder: PatternSequence {
         x: usize,
         out: &mut PixelCandidates<K>,
     ) -> Result<(), RowError> {
-        check_row(self.frame_count(), row)?;
+        row.check_shape(self.frame_count())?;
         if x >= row.width {
             return Err(RowError::Pixel {
                 x,
@@ -181,33 +181,4 @@ pub trait PixelDecoder: PatternSequence {
             .map_or(projector, |l| projector.intersect(&l[x]));
         self.decode_pixel(|i| row.frames[i * row.width + x], saturation, &range, out);
     }
-}
-
-/// The checks of a row every baseline decoder makes before it reads a sample: a width, a bit
-/// depth of 1–16, `frames × width` samples, column limits (if any) for every pixel.
-fn check_row(frames: usize, row: &Row<'_>) -> Result<(), RowError> {
-    if row.width == 0 {
-        return Err(RowError::EmptyRow);
-    }
-    if !(1..=16).contains(&row.bit_depth) {
-        return Err(RowError::BitDepth {
-            bit_depth: row.bit_depth,
-        });
-    }
-    let expected = frames.saturating_mul(row.width);
-    if row.frames.len() != expected {
-        return Err(RowError::FramesLength {
-            expected,
-            actual: row.frames.len(),
-        });
-    }
-    if let Some(limits) = row.column_limits {
-        if limits.len() != row.width {
-            return Err(RowError::ColumnLimitsLength {
-                expected: row.width,
-                actual: limits.len(),
-            });
-        }
-    }
-    Ok(())
 }

@@ -64,6 +64,38 @@ pub struct Row<'a> {
     pub column_limits: Option<&'a [ColumnRange]>,
 }
 
+impl Row<'_> {
+    /// The checks every decoder (FSM's and the baselines') makes of a row of `frames` frames
+    /// before it reads a sample: a width, a bit depth of 1–16, `frames × width` samples, and
+    /// column limits (if any) for every pixel.
+    pub(crate) fn check_shape(&self, frames: usize) -> Result<(), RowError> {
+        if self.width == 0 {
+            return Err(RowError::EmptyRow);
+        }
+        if !(1..=16).contains(&self.bit_depth) {
+            return Err(RowError::BitDepth {
+                bit_depth: self.bit_depth,
+            });
+        }
+        let expected = frames.saturating_mul(self.width);
+        if self.frames.len() != expected {
+            return Err(RowError::FramesLength {
+                expected,
+                actual: self.frames.len(),
+            });
+        }
+        if let Some(limits) = self.column_limits {
+            if limits.len() != self.width {
+                return Err(RowError::ColumnLimitsLength {
+                    expected: self.width,
+                    actual: limits.len(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Why a decoder could not be built.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -517,29 +549,7 @@ impl<'t> Decoder<'t> {
     }
 
     fn check(&self, row: &Row<'_>, scratch: &[f32], needed: usize) -> Result<(), RowError> {
-        if row.width == 0 {
-            return Err(RowError::EmptyRow);
-        }
-        if !(1..=16).contains(&row.bit_depth) {
-            return Err(RowError::BitDepth {
-                bit_depth: row.bit_depth,
-            });
-        }
-        let expected = self.plan.sequence_len().saturating_mul(row.width);
-        if row.frames.len() != expected {
-            return Err(RowError::FramesLength {
-                expected,
-                actual: row.frames.len(),
-            });
-        }
-        if let Some(limits) = row.column_limits {
-            if limits.len() != row.width {
-                return Err(RowError::ColumnLimitsLength {
-                    expected: row.width,
-                    actual: limits.len(),
-                });
-            }
-        }
+        row.check_shape(self.plan.sequence_len())?;
         if scratch.len() < needed {
             return Err(RowError::ScratchTooShort {
                 needed,
