@@ -5,7 +5,8 @@
 # own mirror scene and on the simulator's plane_mirror, with CLEAN and with the local-maximum
 # search; the four baselines, phase shift, Micro Phase Shifting, Code Ensemble and line scanning,
 # on the mirror scene), drive it with the host CLI over its UART and its Ethernet (`fsm upload`,
-# `fsm camera info`, `fsm camera scan`; over Ethernet every method's plan), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
+# `fsm camera info`, `fsm camera scan`; every method's plan over Ethernet, Code Ensemble's over the
+# UART too), boot scripts/image-arm.sh's raw binary as U-Boot would, with no debugger
 # (console on UART1, scans over Ethernet, a panic that resets the SoC), check how it refuses bad
 # input, the determinism of its instruction counts, every failure path's exit code, the Rust
 # cross-check test, and (if defmt-print is installed) defmt logging.
@@ -222,6 +223,16 @@ for p in paper-efsm-2 paper-bfsm; do
         bad "fsm camera scan over the firmware's UART, $p"
     fi
 done
+# One baseline through the UART too (the link does not depend on the method; Code Ensemble's 80
+# frames keep it short): uploaded, then scanned, byte for byte as the host decodes it.
+if [ "$baselines_ok" = 1 ] && fp="$(upload_check "$uart_dev" uart-ce sim-code-ensemble/plan.toml)" \
+    && link_scan "$uart_dev" code-ensemble uart-ce >uart-ce.rate; then
+    cat uart-ce.rate
+    ok "fsm upload and fsm camera scan over the firmware's UART, code-ensemble (plan $fp, 32 rows x 48 pixels): candidates bit-identical"
+else
+    cat uart-console.txt uart-ce-upload.txt uart-ce.rate 2>/dev/null || true
+    bad "fsm upload and fsm camera scan over the firmware's UART, code-ensemble"
+fi
 kill "$uart_qemu" 2>/dev/null || true
 wait "$uart_qemu" 2>/dev/null || true
 
