@@ -45,8 +45,10 @@
 //!    to where the profile correlates best with a bell of its own width (a centroid
 //!    re-weighted by a window on the light, [`MATCHED_REACH`]): a matched filter, 16–32% less
 //!    scatter than the floored centroid. A narrower light keeps its centroid (the window's
-//!    sampling bias would exceed the noise it saves). Lights below `min_amplitude_dn` or `relative_floor` of the strongest are
-//!    dropped; at most `max_peaks` are kept, strongest first.
+//!    sampling bias would exceed the noise it saves), and so does one the window would move
+//!    by more than [`MATCHED_MAX_SHIFT`] (a light that is not a bell). Lights below
+//!    `min_amplitude_dn` or `relative_floor` of the strongest are dropped; at most `max_peaks`
+//!    are kept, strongest first.
 
 use heapless::Vec;
 
@@ -633,12 +635,12 @@ pub const MATCHED_REACH: f32 = 3.5;
 /// `accuracy` and `estimators`), more than the noise it saves; it keeps its centroid.
 const MATCHED_MIN_VARIANCE: f32 = 0.64;
 
-/// The most [`matched`] may move a light, columns. On a symmetric light the window moves the
-/// column by about its noise (a hundredth of a column); a larger move means a light that is not
-/// the bell the window fits, and the light keeps its centroid. Allowing a whole column, the
-/// window changed the selection along `vgroove`'s crease (EFSM): the scan's edge test then took
-/// 0.3% of that band's right points (`tests/workspace/wrong_points.rs`).
-const MATCHED_MAX_SHIFT: f32 = 0.05;
+/// The most the matched window (step 4) may move a light, columns. On a symmetric light it
+/// moves the column by about its noise (a hundredth of a column); a larger move means a light
+/// that is not the bell the window fits, and the light keeps its centroid. Allowing a whole
+/// column, the window changed the selection along `vgroove`'s crease (EFSM): the scan's edge
+/// test then took 0.3% of that band's right points (`tests/workspace/wrong_points.rs`).
+pub const MATCHED_MAX_SHIFT: f32 = 0.05;
 
 /// Most columns of an isolated light that [`matched`] re-measures.
 const MATCHED_MAX_COLUMNS: usize = 32;
