@@ -3,7 +3,7 @@
 //! syntax, to text that parses back to it.
 #![no_main]
 
-use fsm_io::plan_file::{parse_method_plan, render_method_plan, PlanSyntax};
+use fsm_io::plan_file::{parse_method_plan, render_method_plan, MethodPlanText, PlanSyntax};
 use libfuzzer_sys::fuzz_target;
 
 const SYNTAXES: [PlanSyntax; 2] = [PlanSyntax::Toml, PlanSyntax::Json];
